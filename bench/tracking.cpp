@@ -1,0 +1,111 @@
+// Tracking benchmark: the paper's two references on the simulated plant, for PID alone,
+// feedforward alone and feedforward + PID, in double, float and Q16.16 fixed point, in the
+// ideal and rig-like conditions of model.md. Gains: tuned per controller, test and condition in
+// double by sma_host::tune_pid (the same method for all). Prints a Markdown table and writes
+// JSON; also the plant's speed in simulated seconds per wall second.
+//
+//   bench_tracking [--json FILE] [--quick]
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+#include "sma/fixed.hpp"
+#include "sma_host/tune.hpp"
+
+using sma_host::Condition;
+using sma_host::Metrics;
+using sma_host::RunSetup;
+
+namespace {
+struct Row {
+  std::string test, condition, controller, scalar;
+  sma::PidGains gains;
+  Metrics m;
+};
+
+template <class T>
+Metrics run(const RunSetup& s) {
+  const std::vector<sma_host::Sample> r = sma_host::run_closed_loop<T>(s);
+  return s.reference.kind == sma::RefKind::Sine ? sma_host::sine_metrics(r, s.reference.sine_period_s)
+                                                : sma_host::step_metrics(r, s.reference.step_s);
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  const char* json_path = "bench_tracking.json";
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--json") && i + 1 < argc) json_path = argv[++i];
+    else {
+      std::fprintf(stderr, "usage: %s [--json FILE]\n", argv[0]);
+      return 2;
+    }
+  }
+  std::vector<Row> rows;
+  const sma::Mode modes[] = {sma::Mode::Pid, sma::Mode::Feedforward, sma::Mode::FeedforwardPid};
+  int done = 0;
+  for (int c = 0; c < 2; ++c)
+    for (int sine = 1; sine >= 0; --sine)
+      for (sma::Mode mode : modes) {
+        RunSetup s;
+        s.mode = mode;
+        s.condition = c ? Condition::rig_like() : Condition::ideal();
+        s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
+        if (mode != sma::Mode::Feedforward) s.config.gains = sma_host::tune_pid(s).gains;
+        std::fprintf(stderr, "\r[%2d/12] tuning and running %-5s %-5s %-8s", ++done,
+                     sine ? "sine" : "steps", sma::mode_name(mode), s.condition.name);
+        const char* names[] = {"double", "float", "fixed"};
+        for (int k = 0; k < 3; ++k) {
+          Row r{sine ? "sine" : "multi-step", s.condition.name, sma::mode_name(mode), names[k],
+                s.config.gains, Metrics()};
+          r.m = k == 0 ? run<double>(s) : k == 1 ? run<float>(s) : run<sma::Fixed>(s);
+          rows.push_back(r);
+        }
+      }
+  std::fprintf(stderr, "\n");
+
+  // Plant speed: simulated seconds per wall second, plain and with a thermal effect.
+  double speed[2];
+  for (int e = 0; e < 2; ++e) {
+    sma::Effects fx;
+    if (e) fx.latent_heat_J = 1.0;
+    sma::Plant plant(sma::Params(), fx);
+    const auto t0 = std::chrono::steady_clock::now();
+    const int n = e ? 200000 : 2000000;
+    for (int k = 0; k < n; ++k) plant.step(k % 5000 < 2500 ? 1.6 : 0.3, 0.01);
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    speed[e] = n * 0.01 / wall;
+  }
+
+  std::printf("| test | condition | controller | scalar | kp | ki | kd | RMS mm | max heat mm | "
+              "max cool mm | overshoot %% | settle s |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Row& r : rows)
+    std::printf("| %s | %s | %s | %s | %.3g | %.3g | %.3g | %.4f | %.4f | %.4f | %.1f | %.2f |\n",
+                r.test.c_str(), r.condition.c_str(), r.controller.c_str(), r.scalar.c_str(), r.gains.kp,
+                r.gains.ki, r.gains.kd, r.m.rms_mm, r.m.max_heat_mm, r.m.max_cool_mm,
+                r.m.overshoot_pct, r.m.settle_s);
+  std::printf("\nPlant speed: %.0f simulated s per wall s (paper's model), %.0f (with latent heat, "
+              "1 ms sub-steps)\n", speed[0], speed[1]);
+
+  FILE* f = std::fopen(json_path, "w");
+  if (!f) {
+    std::perror(json_path);
+    return 1;
+  }
+  std::fprintf(f, "{\n  \"plant_sim_s_per_wall_s\": %.1f,\n  \"plant_latent_sim_s_per_wall_s\": %.1f,\n  \"runs\": [\n",
+               speed[0], speed[1]);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const Row& r = rows[i];
+    std::fprintf(f,
+                 "    {\"test\": \"%s\", \"condition\": \"%s\", \"controller\": \"%s\", \"scalar\": \"%s\", "
+                 "\"kp\": %g, \"ki\": %g, \"kd\": %g, \"rms_mm\": %.6f, \"max_heat_mm\": %.6f, "
+                 "\"max_cool_mm\": %.6f, \"overshoot_pct\": %.3f, \"settle_s\": %.3f, \"sse_mm\": %.6f}%s\n",
+                 r.test.c_str(), r.condition.c_str(), r.controller.c_str(), r.scalar.c_str(), r.gains.kp,
+                 r.gains.ki, r.gains.kd, r.m.rms_mm, r.m.max_heat_mm, r.m.max_cool_mm, r.m.overshoot_pct,
+                 r.m.settle_s, r.m.sse_mm, i + 1 < rows.size() ? "," : "");
+  }
+  std::fprintf(f, "  ]\n}\n");
+  std::fclose(f);
+  std::printf("wrote %s\n", json_path);
+  return 0;
+}

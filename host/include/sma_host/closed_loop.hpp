@@ -1,0 +1,82 @@
+// Host side: one closed-loop run of a Controller<T> against the simulated Plant, at the
+// controller's tick, as the firmware runs it: measure, compute, apply.
+// Shared by the native tests, the tracking benchmark and `tools/sma sim`.
+#ifndef SMA_HOST_CLOSED_LOOP_HPP
+#define SMA_HOST_CLOSED_LOOP_HPP
+
+#include <vector>
+#include "sma/controller.hpp"
+#include "sma/plant.hpp"
+#include "sma/reference.hpp"
+
+namespace sma_host {
+
+struct Sample {
+  double t;       // s
+  double ref;     // mm
+  double meas;    // measured displacement, mm
+  double truth;   // true displacement, mm
+  double v;       // voltage applied to the wire, V
+  double v1;      // feedforward part, V
+  double temp;    // true wire temperature, deg C
+};
+
+// One of the two closed-loop conditions of model.md.
+struct Condition {
+  const char* name = "ideal";
+  sma::RigOptions rig;      // noise, ADC step, PWM levels
+  int compute_delay_ticks = 0;  // V computed at tick k is applied from tick k + delay
+
+  static Condition ideal() { return Condition(); }
+  static Condition rig_like() {
+    Condition c;
+    c.name = "rig-like";
+    c.rig = sma::RigOptions::rig_like();
+    c.compute_delay_ticks = 1;
+    return c;
+  }
+};
+
+struct RunSetup {
+  sma::Params plant_params;       // the wire
+  sma::Effects plant_effects;     // what the wire does that the model may not know
+  sma::Params model_params;       // what the controller believes
+  sma::Effects model_effects;
+  sma::ControllerConfig config;
+  sma::Mode mode = sma::Mode::FeedforwardPid;
+  sma::Reference reference = sma::Reference::sine();
+  Condition condition;
+  double duration_s = 0.0;  // 0: the reference's own duration
+};
+
+template <class T>
+std::vector<Sample> run_closed_loop(const RunSetup& s) {
+  sma::Plant plant(s.plant_params, s.plant_effects, s.condition.rig);
+  sma::Controller<T> ctl(s.model_params, s.model_effects, s.config);
+  sma::ReferenceGen<T> ref(s.reference);
+  const double dt = s.config.dt;
+  const double duration = s.duration_s > 0.0 ? s.duration_s : s.reference.duration();
+  const long n = static_cast<long>(duration / dt + 0.5);
+  ctl.set_mode(s.mode, sma::from_double<T>(plant.measure()));
+  std::vector<double> pending(static_cast<size_t>(s.condition.compute_delay_ticks) + 1, 0.0);
+  std::vector<Sample> out;
+  out.reserve(static_cast<size_t>(n));
+  for (long k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) * dt;
+    const double meas = plant.measure();
+    const T r = ref.at(t);
+    const double v_cmd = sma::to_double(ctl.step(r, sma::from_double<T>(meas)));
+    // Computation delay: the command reaches the heater `delay` ticks later.
+    pending.push_back(v_cmd);
+    const double v = pending.front();
+    pending.erase(pending.begin());
+    out.push_back({t, sma::to_double(r), meas, plant.displacement(), plant.applied_voltage(v),
+                   sma::to_double(ctl.v1()), plant.temperature()});
+    plant.step(v, dt);
+  }
+  return out;
+}
+
+}  // namespace sma_host
+
+#endif  // SMA_HOST_CLOSED_LOOP_HPP

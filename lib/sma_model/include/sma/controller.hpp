@@ -1,0 +1,141 @@
+// The feedforward + feedback controller of eq 18:  V = V1 + V2,  0 <= V <= V_max.
+//   V1: inverse model (inverse.hpp) of the reference,  V2: PID (pid.hpp) on r - D.
+// Modes: Off (V = 0), OpenLoop (a fixed V), Pid (V2 only), Feedforward (V1 only),
+// FeedforwardPid (both). A mode change is bumpless where it can be: the PID starts from the
+// voltage the loop had. NaN in, or a non-finite result, gives V = 0: the heater off is the safe
+// output of a heater.
+#ifndef SMA_CONTROLLER_HPP
+#define SMA_CONTROLLER_HPP
+
+#include "effects.hpp"
+#include "inverse.hpp"
+#include "mechanics.hpp"
+#include "params.hpp"
+#include "pid.hpp"
+#include "scalar.hpp"
+#include "thermal.hpp"
+
+namespace sma {
+
+enum class Mode : uint8_t { Off = 0, OpenLoop = 1, Pid = 2, Feedforward = 3, FeedforwardPid = 4 };
+
+inline const char* mode_name(Mode m) {
+  switch (m) {
+    case Mode::OpenLoop: return "open";
+    case Mode::Pid: return "pid";
+    case Mode::Feedforward: return "ff";
+    case Mode::FeedforwardPid: return "ffpid";
+    default: return "off";
+  }
+}
+
+struct ControllerConfig {
+  double dt = 0.01;     // tick, s (100 Hz)
+  double v_max = 2.0;   // eq 18
+  PidGains gains;       // for both PID modes (see default_gains())
+  InverseConfig inverse;
+
+  const char* check() const {
+    if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
+    if (!(v_max > 0.0 && v_max <= 5.0)) return "v_max must be in 0..5";
+    return gains.check();
+  }
+};
+
+template <class T>
+class Controller {
+ public:
+  Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg)
+      : cfg_(cfg),
+        mech_(p),
+        inverse_(p, fx, with_dt(cfg.inverse, cfg.dt, cfg.v_max)),
+        pid_(cfg.gains, cfg.dt),
+        thermal_step_(p, cfg.dt, fx),
+        T_wire_(from_double<T>(p.T_amb + fx.ambient_offset_K)),
+        v_max_(from_double<T>(cfg.v_max)) {}
+
+  // Switch mode. The measurement lets the new mode start smoothly: the inverse's loop memory
+  // restarts from the measured fraction at the estimated wire temperature, the PID from the
+  // last V.
+  void set_mode(Mode m, T measurement) {
+    if (m == mode_) return;
+    const bool ff = m == Mode::Feedforward || m == Mode::FeedforwardPid;
+    const bool had_ff = mode_ == Mode::Feedforward || mode_ == Mode::FeedforwardPid;
+    if (ff && !had_ff) inverse_.reset(T_wire_, mech_.fraction(measurement));
+    if (m == Mode::Pid || m == Mode::FeedforwardPid) {
+      const T v1 = (m == Mode::FeedforwardPid) ? v1_ : T(0);
+      pid_.start(measurement, T(0), v_ - v1);
+    }
+    mode_ = m;
+  }
+  Mode mode() const { return mode_; }
+
+  // Voltage of the open-loop mode, clamped to 0..V_max.
+  void set_voltage(T v) { v_open_ = clamp(v, T(0), v_max_); }
+  void set_gains(const PidGains& g) {
+    cfg_.gains = g;
+    pid_.set_gains(g, cfg_.dt);
+  }
+  const ControllerConfig& config() const { return cfg_; }
+
+  // One tick: reference and measured displacement (mm) -> voltage across the wire, 0..V_max.
+  // The wire temperature estimate advances with the voltage actually commanded (eq 1,
+  // exact zero-order-hold step): what the safety limit watches.
+  T step(T ref, T measured) {
+    v_ = compute(ref, measured);
+    T_wire_ = thermal_step_(T_wire_, v_);
+    return v_;
+  }
+
+  // Estimated wire temperature (eq 1 on the commanded voltage), deg C.
+  T wire_temperature() const { return T_wire_; }
+
+  T v1() const { return v1_; }
+  T v2() const { return v2_; }
+  T voltage() const { return v_; }
+  const InverseModel<T>& inverse() const { return inverse_; }
+
+ private:
+  static InverseConfig with_dt(InverseConfig c, double dt, double v_max) {
+    c.dt = dt;
+    c.v_max = v_max;
+    return c;
+  }
+  T compute(T ref, T measured) {
+    v1_ = T(0);
+    v2_ = T(0);
+    if (!is_finite(ref) || !is_finite(measured)) return T(0);
+    ref = clamp(ref, T(0), mech_.g);  // a reference past the stroke cannot be reached
+    switch (mode_) {
+      case Mode::OpenLoop: return v_open_;
+      case Mode::Pid:
+        v2_ = pid_.step(ref - measured, measured, T(0), v_max_);
+        break;
+      case Mode::Feedforward:
+        v1_ = min(inverse_.step(ref), v_max_);
+        break;
+      case Mode::FeedforwardPid:
+        v1_ = min(inverse_.step(ref), v_max_);
+        // PID limits that keep V1 + V2 inside 0..V_max: its anti-windup sees eq 18's clamp.
+        v2_ = pid_.step(ref - measured, measured, -v1_, v_max_ - v1_);
+        break;
+      default: return T(0);
+    }
+    const T v = clamp(v1_ + v2_, T(0), v_max_);
+    return is_finite(v) ? v : T(0);
+  }
+
+  ControllerConfig cfg_;
+  Mechanics<T> mech_;
+  InverseModel<T> inverse_;
+  Pid<T> pid_;
+  ThermalStep<T> thermal_step_;
+  T T_wire_;
+  T v_max_;
+  Mode mode_ = Mode::Off;
+  T v_open_ = T(0), v_ = T(0), v1_ = T(0), v2_ = T(0);
+};
+
+}  // namespace sma
+
+#endif  // SMA_CONTROLLER_HPP

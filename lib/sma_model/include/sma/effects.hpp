@@ -1,0 +1,51 @@
+// Effects the paper's model leaves out (model.md, "known to be incomplete"), with the names of
+// the vocabulary in interfaces.md. All zero / identity by default = the paper's model.
+//
+// The thermal ones enter eq 1 and its inverse eq 17 (thermal.hpp); the sensor ones act on the
+// measured displacement (plant.hpp on the host; the firmware can compensate them). Defined once
+// here so the plant, the model, the identification and the firmware agree on their meaning.
+#ifndef SMA_EFFECTS_HPP
+#define SMA_EFFECTS_HPP
+
+namespace sma {
+
+struct Effects {
+  // sensor_delay: the measurement is the displacement delay_s seconds ago.
+  double sensor_delay_s = 0.0;
+  // sensor_lag: first-order low-pass of the measurement, time constant tau_s.
+  double sensor_lag_s = 0.0;
+  // sensor_calibration: measured = gain * D + offset_mm.
+  double sensor_gain = 1.0;
+  double sensor_offset_mm = 0.0;
+  // ambient_offset: the true ambient is T_amb + offset_K.
+  double ambient_offset_K = 0.0;
+  // convection_nonlinear: loss = G (T - T_a) (1 + beta_per_K (T - T_a)).
+  double convection_beta_per_K = 0.0;
+  // resistance_phase: R(eps) = R (1 + k_R eps), eps the austenite fraction.
+  double resistance_k = 0.0;
+  // latent_heat: L_J joules absorbed by a full martensite -> austenite transformation
+  // (released on the way back): C_th dT/dt gains the term - L_J d(eps)/dt.
+  double latent_heat_J = 0.0;
+
+  bool thermal_active() const {
+    return ambient_offset_K != 0.0 || convection_beta_per_K != 0.0 || resistance_k != 0.0 ||
+           latent_heat_J != 0.0;
+  }
+  // nullptr when physical, else a message naming the parameter.
+  const char* check() const {
+    if (!(sensor_delay_s >= 0.0 && sensor_delay_s <= 5.0)) return "delay_s must be in 0..5";
+    if (!(sensor_lag_s >= 0.0 && sensor_lag_s <= 5.0)) return "tau_s must be in 0..5";
+    if (!(sensor_gain > 0.2 && sensor_gain < 5.0)) return "gain must be in 0.2..5";
+    if (!(sensor_offset_mm > -100.0 && sensor_offset_mm < 100.0)) return "offset_mm out of range";
+    if (!(ambient_offset_K > -50.0 && ambient_offset_K < 50.0)) return "offset_K must be in -50..50";
+    if (!(convection_beta_per_K >= 0.0 && convection_beta_per_K < 0.1))
+      return "beta_per_K must be in 0..0.1";
+    if (!(resistance_k > -0.9 && resistance_k < 2.0)) return "k_R must be in -0.9..2";
+    if (!(latent_heat_J >= 0.0 && latent_heat_J < 100.0)) return "L_J must be in 0..100";
+    return nullptr;
+  }
+};
+
+}  // namespace sma
+
+#endif  // SMA_EFFECTS_HPP

@@ -1,0 +1,236 @@
+// Phase transformation with major and minor loops (eqs 2-11) and its inverse (eqs 15, 16).
+//
+// PhaseCurves<T> holds the constant shapes: the major heating curve, the minor-loop rules that
+// fix a cooling branch at each reversal, and the inverse of both branches.
+// Hysteresis<T> is the rate-independent state machine that walks them: it sees only the
+// temperature path, never time. The plant, the model and the inverse (inverse.hpp) all use
+// these two classes, so the hysteresis is written exactly once.
+//
+// Choices beyond the paper (see model.md and README "Model choices"):
+//  - heating follows eps = max(eps, eps_h(T)): a heating that starts above the major curve
+//    stays flat until it meets it;
+//  - return-point memory: a heating that reverses before it transformed anything (eps stayed
+//    flat) does not open a new loop: the cooling resumes the branch it left, flat until the
+//    temperature falls back to where it left it. Without this, small temperature ripples
+//    would each add a rise j_i and ratchet eps up to 1.
+#ifndef SMA_HYSTERESIS_HPP
+#define SMA_HYSTERESIS_HPP
+
+#include "params.hpp"
+#include "scalar.hpp"
+
+namespace sma {
+
+// The cooling branch fixed at one reversal (eqs 5, 6, 11), with the reciprocals it needs
+// precomputed so that evaluating it never divides.
+template <class T>
+struct CoolingLoop {
+  T T_i;        // peak temperature of the loop
+  T eps_i;      // fraction at the peak
+  T T_ii;       // end of the rise (eq 5)
+  T rise_rate;  // j_i / (T_i - T_ii): d(eps)/d(-T) during the rise (eq 6)
+  T top;        // eps_i + j_i, clamped to 1: the flat level (eq 5, maintaining)
+  T T_MSi;      // martensite start of this loop (eqs 7-10)
+  T inv_cool;   // 1 / (T_MSi - T_MF), 0 when the interval is empty
+  T inv_top;    // 1 / top, 0 when top is 0
+};
+
+template <class T>
+class PhaseCurves {
+ public:
+  explicit PhaseCurves(const Params& p)
+      : T_AS_(from_double<T>(p.T_AS)),
+        T_AF_(from_double<T>(p.T_AF)),
+        T_MF_(from_double<T>(p.T_MF)),
+        width_A_(from_double<T>(p.T_AF - p.T_AS)),
+        inv_width_A_(from_double<T>(1.0 / (p.T_AF - p.T_AS))),
+        T_s_(from_double<T>(p.T_s)),
+        T_f_(from_double<T>(p.T_f)),
+        inv_width_sf_(from_double<T>(1.0 / (p.T_f - p.T_s))),
+        T_MSs_(from_double<T>(p.T_MSs)),
+        T_MSf_(from_double<T>(p.T_MSf)),
+        q_(from_double<T>(p.q)),
+        e_(from_double<T>(p.e)),
+        n_knots_(static_cast<uint8_t>(p.n_loops + 2)) {
+    for (uint8_t k = 0; k < 6; ++k) m_[k] = from_double<T>(p.m[k]);
+    // Knots of the piecewise-linear j(T_i) and span(T_i) = T_i - T_ii: zero at T_s and T_f.
+    set_knot(0, p.T_s, 0.0, 0.0);
+    for (uint8_t k = 0; k < p.n_loops; ++k)
+      set_knot(static_cast<uint8_t>(k + 1), p.loops[k].T_i, p.loops[k].T_i - p.loops[k].T_ii,
+               p.loops[k].j);
+    set_knot(static_cast<uint8_t>(p.n_loops + 1), p.T_f, 0.0, 0.0);
+  }
+
+  // Eq 2: austenite fraction on the major heating curve.
+  T eps_heat(T Tw) const { return cos_ramp((Tw - T_AS_) * inv_width_A_); }
+
+  // Eq 15: the temperature on the major heating curve for a fraction eps (clamped to 0..1).
+  T heat_temperature(T eps) const { return T_AS_ + width_A_ * cos_ramp_inv(eps); }
+
+  // Eqs 7-10: martensite start of a loop that peaked at T_i, before clamping.
+  T martensite_start(T T_i) const {
+    if (T_i > T_s_ && T_i < T_f_) {
+      const T nt = (T_i - T_s_) * inv_width_sf_;                                   // eq 9
+      const T n = ((((m_[5] * nt + m_[4]) * nt + m_[3]) * nt + m_[2]) * nt + m_[1]) * nt + m_[0];  // eq 8
+      return T_MSf_ + n * (T_MSs_ - T_MSf_);                                       // eq 7
+    }
+    return q_ * eps_heat(T_i) + e_;  // eq 10
+  }
+
+  // The cooling branch that a reversal at (T_i, eps_i) starts.
+  CoolingLoop<T> make_loop(T T_i, T eps_i) const {
+    CoolingLoop<T> L;
+    L.T_i = T_i;
+    L.eps_i = eps_i;
+    T j, span;
+    rise_at(T_i, j, span);
+    L.top = min(eps_i + j, T(1));  // eps never exceeds 1
+    // A span below 1 mK is a step: the rise happens at once (and 1/span would overflow).
+    if (span > T(0.001)) {
+      L.T_ii = T_i - span;
+      L.rise_rate = (L.top - eps_i) / span;
+    } else {
+      L.T_ii = T_i;
+      L.rise_rate = T(0);
+    }
+    // Clamp T_MSi to [T_MF, T_ii] (model.md): the flat stage cannot start above its own end.
+    L.T_MSi = clamp(martensite_start(T_i), T_MF_, L.T_ii);
+    const T cool_width = L.T_MSi - T_MF_;
+    L.inv_cool = cool_width > T(0.001) ? T(1) / cool_width : T(0);
+    L.inv_top = L.top > T(0) ? T(1) / L.top : T(0);
+    return L;
+  }
+
+  // Eqs 5, 6, 11: the fraction on a loop's cooling branch at temperature Tw <= T_i.
+  T eps_cool(const CoolingLoop<T>& L, T Tw) const {
+    if (Tw >= L.T_i) return L.eps_i;
+    if (Tw > L.T_ii) {
+      if (L.rise_rate > T(0)) return L.eps_i + (L.T_i - Tw) * L.rise_rate;  // eqs 5-6, rise
+      return L.top;
+    }
+    if (Tw >= L.T_MSi) return L.top;                                   // eq 5, maintaining
+    if (Tw > T_MF_ && L.inv_cool > T(0))
+      return L.top * cos_ramp((Tw - T_MF_) * L.inv_cool);              // eq 11
+    return T(0);
+  }
+
+  // Eq 16: the temperature on a loop's cooling branch below its rise for a fraction eps.
+  // eps >= top gives T_MSi (the flat stage, its coldest point: cooling must get there).
+  T cool_temperature(const CoolingLoop<T>& L, T eps) const {
+    if (!(eps < L.top)) return L.T_MSi;
+    if (!(eps > T(0))) return T_MF_;
+    return T_MF_ + (L.T_MSi - T_MF_) * cos_ramp_inv(eps * L.inv_top);
+  }
+
+  T T_AS() const { return T_AS_; }
+  T T_AF() const { return T_AF_; }
+  T T_MF() const { return T_MF_; }
+
+ private:
+  void set_knot(uint8_t k, double Ti, double span, double j) {
+    knot_T_[k] = from_double<T>(Ti);
+    knot_span_[k] = from_double<T>(span);
+    knot_j_[k] = from_double<T>(j);
+  }
+  // j_i and T_i - T_ii between the identified loops: piecewise-linear in T_i, zero at and
+  // outside T_s, T_f (model.md [choice]).
+  void rise_at(T T_i, T& j, T& span) const {
+    j = T(0);
+    span = T(0);
+    for (uint8_t k = 0; k + 1 < n_knots_; ++k) {
+      if (T_i >= knot_T_[k] && T_i < knot_T_[k + 1]) {
+        const T w = (T_i - knot_T_[k]) / (knot_T_[k + 1] - knot_T_[k]);
+        j = knot_j_[k] + w * (knot_j_[k + 1] - knot_j_[k]);
+        span = knot_span_[k] + w * (knot_span_[k + 1] - knot_span_[k]);
+        return;
+      }
+    }
+  }
+
+  T T_AS_, T_AF_, T_MF_, width_A_, inv_width_A_;
+  T T_s_, T_f_, inv_width_sf_, T_MSs_, T_MSf_;
+  T m_[6];
+  T q_, e_;
+  uint8_t n_knots_;
+  T knot_T_[kMaxLoopKnots + 2];
+  T knot_span_[kMaxLoopKnots + 2];
+  T knot_j_[kMaxLoopKnots + 2];
+};
+
+// The rate-independent state machine over the temperature path.
+template <class T>
+class Hysteresis {
+ public:
+  // Starts at rest at T0 with fraction eps0 (0: fully martensite at ambient).
+  explicit Hysteresis(const PhaseCurves<T>& curves, T T0 = T(22), T eps0 = T(0))
+      : curves_(&curves) {
+    reset(T0, eps0);
+  }
+
+  void reset(T T0, T eps0 = T(0)) {
+    eps_ = clamp(eps0, T(0), T(1));
+    T_last_ = T0;
+    heating_ = false;
+    transformed_ = false;
+    on_branch_ = true;
+    loop_ = curves_->make_loop(T0, eps_);
+    T_left_ = T0;
+  }
+
+  // Advance along the temperature path to Tw; returns the new fraction. NaN is ignored.
+  T update(T Tw) {
+    if (!is_finite(Tw)) return eps_;
+    if (Tw > T_last_) {
+      if (!heating_) {  // valley: leave the cooling branch, remember where
+        heating_ = true;
+        transformed_ = false;
+        if (on_branch_) T_left_ = T_last_;
+        on_branch_ = false;
+      }
+      const T eh = curves_->eps_heat(Tw);  // eq 4: rise along the major heating curve
+      if (eh > eps_) {
+        eps_ = eh;
+        transformed_ = true;
+      }
+    } else if (Tw < T_last_) {
+      if (heating_) {  // peak
+        heating_ = false;
+        if (transformed_) {  // a new minor loop (eqs 5-11)
+          loop_ = curves_->make_loop(T_last_, eps_);
+          on_branch_ = true;
+        }  // else: return-point memory, resume the old branch below T_left_
+      }
+      if (!on_branch_ && Tw <= T_left_) on_branch_ = true;
+      if (on_branch_) eps_ = curves_->eps_cool(loop_, Tw);
+    }
+    T_last_ = Tw;
+    return eps_;
+  }
+
+  // The loop a cooling that starts now would follow (what update() will build on the next
+  // lower temperature). The inverse model needs it to invert the branch before walking it.
+  CoolingLoop<T> loop_for_cooling() const {
+    if (heating_ && transformed_) return curves_->make_loop(T_last_, eps_);
+    return loop_;
+  }
+
+  T eps() const { return eps_; }
+  T temperature() const { return T_last_; }
+  bool heating() const { return heating_; }
+  const CoolingLoop<T>& loop() const { return loop_; }
+  const PhaseCurves<T>& curves() const { return *curves_; }
+
+ private:
+  const PhaseCurves<T>* curves_;
+  T eps_;
+  T T_last_;
+  bool heating_;      // the last move of the temperature was up
+  bool transformed_;  // this heating has moved eps along the major curve
+  bool on_branch_;    // cooling follows loop_ (else flat, waiting to fall to T_left_)
+  CoolingLoop<T> loop_;
+  T T_left_;          // where the path left loop_'s branch
+};
+
+}  // namespace sma
+
+#endif  // SMA_HYSTERESIS_HPP

@@ -1,0 +1,127 @@
+// The inverse model (eqs 14-17) used as the feedforward V1 of eq 18.
+//
+// reference u (mm) --eq 14--> eps_d --eq 15 or 16--> desired temperature T_d --eq 17--> V1
+//
+// The branch (heating eq 15 / cooling eq 16) follows the sign of du/dt. The inverse keeps its own
+// loop memory by walking a Hysteresis along the desired temperature path T_d: the same state
+// machine as the plant, so a reversal of the reference opens the same minor loop (T_i, eps_i,
+// T_MSi, j_i, T_ii) in both.
+// dT/dt: T_d jumps where the hysteresis is flat (e.g. from T_MSi up to T_AS when heating
+// resumes), so eq 17 is applied to a low-pass filtered path T_f (time constant rate_filter_s)
+// whose slope is exact: dT_f/dt = (T_d - T_f) / tau. Filtering the path, not clamping the
+// difference, keeps the whole heat C_th (T_d - T) of a jump in the command.
+// Model wire: eq 17 assumes the wire is on the path, but V_max clips the heating after a jump
+// and the wire lags. The inverse therefore runs eq 1 on its own output (ThermalStep, exact)
+// and evaluates eq 17 at that model wire temperature T_m with the slope
+// dT_f/dt + (T_f - T_m) / track_s: the path's slope plus a pull back onto it. With T_m = T_f
+// this is exactly eq 17. Because T_m is driven by V1 alone, V1 stays a pure function of the
+// reference, a feedforward in the strict sense: it never fights the PID's heat.
+#ifndef SMA_INVERSE_HPP
+#define SMA_INVERSE_HPP
+
+#include "effects.hpp"
+#include "hysteresis.hpp"
+#include "mechanics.hpp"
+#include "params.hpp"
+#include "scalar.hpp"
+#include "thermal.hpp"
+
+namespace sma {
+
+struct InverseConfig {
+  double dt = 0.01;            // tick, s
+  double rate_filter_s = 0.3;  // time constant of the desired-temperature low-pass, s
+  double track_s = 0.5;        // time constant of the pull of the wire onto the path, s
+  double v_max = 2.0;          // the heater's limit, V (eq 18): the model wire sees it too
+  double deadband_mm = 1e-5;   // |du| below this keeps the previous branch
+};
+
+template <class T>
+class InverseModel {
+ public:
+  InverseModel(const Params& p, const Effects& fx = Effects(), InverseConfig cfg = InverseConfig())
+      : curves_(p),
+        thermal_(p, fx),
+        mech_(p),
+        memory_(curves_, from_double<T>(p.T_amb), T(0)),
+        wire_step_(p, cfg.dt, fx),
+        v_max_(from_double<T>(cfg.v_max)),
+        inv_dt_(from_double<T>(1.0 / cfg.dt)),
+        alpha_(from_double<T>(1.0 - ::exp(-cfg.dt / cfg.rate_filter_s))),
+        inv_tau_(from_double<T>(1.0 / cfg.rate_filter_s)),
+        inv_track_(from_double<T>(1.0 / cfg.track_s)),
+        deadband_(from_double<T>(cfg.deadband_mm)) {
+    reset(from_double<T>(p.T_amb), T(0));
+  }
+
+  // Restart at rest: wire at T0 with fraction eps0, reference at its displacement.
+  void reset(T T0, T eps0) {
+    memory_.reset(T0, eps0);
+    T_d_ = T0;
+    T_f_ = T0;
+    T_m_ = T0;
+    u_prev_ = mech_.displacement(memory_.eps());
+    rate_ = T(0);
+    heating_ = true;
+  }
+
+  // One tick: reference u (mm) -> feedforward V1 in 0..V_max.
+  T step(T u) {
+    if (!is_finite(u)) u = u_prev_;  // hold the last reference on NaN
+    const T du = u - u_prev_;
+    if (du > deadband_) heating_ = true;
+    if (du < -deadband_) heating_ = false;
+    u_prev_ = u;
+
+    const T eps_d = mech_.fraction(u);  // eq 14
+    T T_new;
+    if (heating_) {
+      T_new = curves_.heat_temperature(eps_d);  // eq 15
+      // Heating can only raise eps: below the current fraction, hold the temperature.
+      T_new = max(T_new, T_d_);
+    } else {
+      const CoolingLoop<T> loop = memory_.loop_for_cooling();
+      T_new = curves_.cool_temperature(loop, eps_d);  // eq 16, this loop's T_MSi
+      T_new = min(T_new, T_d_);
+    }
+    const T eps_before = memory_.eps();
+    memory_.update(T_new);
+    T_d_ = T_new;
+    // The filtered path T_f and its exact slope.
+    rate_ = (T_d_ - T_f_) * inv_tau_;
+    T_f_ = T_f_ + alpha_ * (T_d_ - T_f_);
+    const T deps_dt = (memory_.eps() - eps_before) * inv_dt_;
+    const T slope = rate_ + (T_f_ - T_m_) * inv_track_;
+    T v1 = min(thermal_.voltage_for(T_m_, slope, memory_.eps(), deps_dt), v_max_);  // eq 17
+    if (!is_finite(v1)) v1 = T(0);
+    T_m_ = wire_step_(T_m_, v1);
+    return v1;
+  }
+
+  T desired_temperature() const { return T_d_; }
+  T filtered_temperature() const { return T_f_; }
+  T model_temperature() const { return T_m_; }
+  T desired_rate() const { return rate_; }
+  bool heating() const { return heating_; }
+  const Hysteresis<T>& memory() const { return memory_; }
+  const Thermal<T>& thermal() const { return thermal_; }
+  const PhaseCurves<T>& curves() const { return curves_; }
+
+  InverseModel(const InverseModel&) = delete;  // memory_ points into curves_
+  InverseModel& operator=(const InverseModel&) = delete;
+
+ private:
+  PhaseCurves<T> curves_;
+  Thermal<T> thermal_;
+  Mechanics<T> mech_;
+  Hysteresis<T> memory_;
+  ThermalStep<T> wire_step_;
+  T v_max_;
+  T inv_dt_, alpha_, inv_tau_, inv_track_, deadband_;
+  T T_d_, T_f_, T_m_, u_prev_, rate_;
+  bool heating_;
+};
+
+}  // namespace sma
+
+#endif  // SMA_INVERSE_HPP

@@ -1,0 +1,121 @@
+// Reference generators for the paper's two tests and for user trajectories.
+//  - multi-step (Fig. 9-11): 0.2 -> 0.4 -> 0.6 -> 0.8 -> 0.5 -> 0.3 mm, 25 s per step;
+//  - sine (Fig. 12-13): between 0.2 and 0.7 mm, period 50 s, starting at the bottom so that
+//    the reference has no jump at t = 0;
+//  - trajectory: user points (t, mm), linear between them, held after the last.
+// All are configurable; times are seconds from the start of the run.
+#ifndef SMA_REFERENCE_HPP
+#define SMA_REFERENCE_HPP
+
+#include <stdint.h>
+#include "scalar.hpp"
+
+namespace sma {
+
+constexpr uint8_t kMaxSteps = 8;
+constexpr uint8_t kMaxPoints = 16;
+
+enum class RefKind : uint8_t { Constant, MultiStep, Sine, Trajectory };
+
+struct Reference {
+  RefKind kind = RefKind::Constant;
+  double constant_mm = 0.0;
+  // Multi-step.
+  double step_mm[kMaxSteps] = {0.2, 0.4, 0.6, 0.8, 0.5, 0.3};
+  uint8_t n_steps = 6;
+  double step_s = 25.0;
+  // Sine.
+  double sine_lo_mm = 0.2, sine_hi_mm = 0.7, sine_period_s = 50.0;
+  double sine_cycles = 3.0;  // length of the run, in periods
+  // Trajectory.
+  double point_t[kMaxPoints] = {};
+  double point_mm[kMaxPoints] = {};
+  uint8_t n_points = 0;
+
+  static Reference multi_step() {
+    Reference r;
+    r.kind = RefKind::MultiStep;
+    return r;
+  }
+  static Reference sine() {
+    Reference r;
+    r.kind = RefKind::Sine;
+    return r;
+  }
+  static Reference constant(double mm) {
+    Reference r;
+    r.kind = RefKind::Constant;
+    r.constant_mm = mm;
+    return r;
+  }
+
+  // Length of the run, s (constant references never end: 0).
+  double duration() const {
+    switch (kind) {
+      case RefKind::MultiStep: return n_steps * step_s;
+      case RefKind::Sine: return sine_cycles * sine_period_s;
+      case RefKind::Trajectory: return n_points ? point_t[n_points - 1] : 0.0;
+      default: return 0.0;
+    }
+  }
+
+  // Appends a trajectory point; false (and nothing changes) if full or time not increasing.
+  bool add_point(double t, double mm) {
+    if (n_points >= kMaxPoints || !is_finite(t) || !is_finite(mm)) return false;
+    if (n_points > 0 && !(t > point_t[n_points - 1])) return false;
+    point_t[n_points] = t;
+    point_mm[n_points] = mm;
+    ++n_points;
+    return true;
+  }
+};
+
+// Evaluates a Reference in the scalar type T; parameters are converted once.
+template <class T>
+class ReferenceGen {
+ public:
+  explicit ReferenceGen(const Reference& r) : r_(r) {
+    mid_ = from_double<T>(0.5 * (r.sine_lo_mm + r.sine_hi_mm));
+    amp_ = from_double<T>(0.5 * (r.sine_hi_mm - r.sine_lo_mm));
+  }
+
+  // Reference at t seconds (t >= 0).
+  T at(double t) const {
+    switch (r_.kind) {
+      case RefKind::MultiStep: {
+        long k = static_cast<long>(t / r_.step_s);
+        if (k < 0) k = 0;
+        if (k >= r_.n_steps) k = r_.n_steps - 1;
+        return from_double<T>(r_.step_mm[k]);
+      }
+      case RefKind::Sine: {
+        // Phase reduced to [0, 1) in double (float on AVR) so T never sees a large angle.
+        const double cycles = t / r_.sine_period_s;
+        const T phase = from_double<T>(cycles - static_cast<double>(static_cast<long>(cycles)));
+        return mid_ - amp_ * cos(phase * T(2.0 * kPi));
+      }
+      case RefKind::Trajectory: {
+        if (r_.n_points == 0) return T(0);
+        if (t <= r_.point_t[0]) return from_double<T>(r_.point_mm[0]);
+        for (uint8_t k = 1; k < r_.n_points; ++k) {
+          if (t < r_.point_t[k]) {
+            const double w = (t - r_.point_t[k - 1]) / (r_.point_t[k] - r_.point_t[k - 1]);
+            return from_double<T>(r_.point_mm[k - 1] + w * (r_.point_mm[k] - r_.point_mm[k - 1]));
+          }
+        }
+        return from_double<T>(r_.point_mm[r_.n_points - 1]);
+      }
+      default: return from_double<T>(r_.constant_mm);
+    }
+  }
+
+  const Reference& config() const { return r_; }
+
+ private:
+  Reference r_;
+  T mid_, amp_;
+};
+
+}  // namespace sma
+
+#endif  // SMA_REFERENCE_HPP

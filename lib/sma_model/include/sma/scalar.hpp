@@ -1,0 +1,65 @@
+// Scalar types and the little math the model needs, for float, double and sma::Fixed.
+//
+// Every model template is written against this header only: it calls sma::cos, sma::acos,
+// sma::sqrt, sma::abs, sma::is_finite, sma::clamp, sma::min, sma::max and builds constants
+// with an explicit conversion `T(0.5)`. A new scalar type becomes usable by providing those
+// overloads in namespace sma (see fixed.hpp for the fixed-point one).
+//
+// No STL: avr-gcc 5.4 ships no C++ standard headers, so <math.h> and <stdint.h> only.
+#ifndef SMA_SCALAR_HPP
+#define SMA_SCALAR_HPP
+
+#include <math.h>
+#include <stdint.h>
+
+namespace sma {
+
+// pi to double precision; on AVR `double` is a 32-bit float and this rounds accordingly.
+constexpr double kPi = 3.14159265358979323846;
+
+// ---- float / double overloads -------------------------------------------------------------
+// On AVR `double` is float, so the float overloads simply call the double functions.
+inline float cos(float x) { return static_cast<float>(::cos(x)); }
+inline float acos(float x) { return static_cast<float>(::acos(x)); }
+inline float sqrt(float x) { return static_cast<float>(::sqrt(x)); }
+inline float sin(float x) { return static_cast<float>(::sin(x)); }
+inline float exp(float x) { return static_cast<float>(::exp(x)); }
+inline bool is_finite(float x) { return isfinite(x) != 0; }
+#if !defined(__AVR__)
+// Host: double is a distinct 64-bit type.
+inline double cos(double x) { return ::cos(x); }
+inline double acos(double x) { return ::acos(x); }
+inline double sqrt(double x) { return ::sqrt(x); }
+inline double sin(double x) { return ::sin(x); }
+inline double exp(double x) { return ::exp(x); }
+inline bool is_finite(double x) { return isfinite(x) != 0; }
+#endif
+
+template <class T> constexpr T abs(T x) { return x < T(0) ? -x : x; }
+template <class T> constexpr T min(T a, T b) { return b < a ? b : a; }
+template <class T> constexpr T max(T a, T b) { return a < b ? b : a; }
+// clamp(x, lo, hi); a NaN x compares false everywhere and is mapped to lo, the safe side
+// for every quantity the model clamps (voltage, fractions).
+template <class T> constexpr T clamp(T x, T lo, T hi) {
+  return (x > lo) ? ((x < hi) ? x : hi) : lo;
+}
+
+// Conversions at the boundary (parameters, telemetry). `T(x)` for built-in types.
+template <class T> inline T from_double(double x) { return static_cast<T>(x); }
+template <class T> inline double to_double(T x) { return static_cast<double>(x); }
+
+// ---- the two shapes of the Liang-Rogers model, on a normalised argument ---------------------
+// cos_ramp(x) = 0.5 [1 - cos(pi x)], x clamped to [0, 1]: the shape of eqs 2, 3 and 11.
+template <class T> inline T cos_ramp(T x) {
+  x = clamp(x, T(0), T(1));
+  return T(0.5) * (T(1) - cos(x * T(kPi)));
+}
+// cos_ramp_inv(y) = acos(1 - 2y) / pi, y clamped to [0, 1]: the shape of eqs 15 and 16.
+template <class T> inline T cos_ramp_inv(T y) {
+  y = clamp(y, T(0), T(1));
+  return acos(T(1) - T(2) * y) * T(1.0 / kPi);
+}
+
+}  // namespace sma
+
+#endif  // SMA_SCALAR_HPP

@@ -1,0 +1,90 @@
+// Thermal model of the wire (eq 1) and its inverse (eq 17), with the optional thermal effects
+// of effects.hpp. The one place where the power balance of the wire is written:
+//
+//   C_th dT/dt = V^2 / R(eps) - G (T - T_a) (1 + beta (T - T_a)) - L dEps/dt
+//
+// with C_th = rho c pi d0^2 L0 / 4, G = pi d0 L0 h, T_a = T_amb + ambient offset,
+// R(eps) = R (1 + k_R eps). With all effects zero this is exactly the paper's eq 1.
+#ifndef SMA_THERMAL_HPP
+#define SMA_THERMAL_HPP
+
+#include "effects.hpp"
+#include "params.hpp"
+#include "scalar.hpp"
+
+namespace sma {
+
+template <class T>
+struct Thermal {
+  T C;       // heat capacity C_th, J/K
+  T inv_C;   // 1 / C_th: the tick never divides
+  T G;       // conductance G, W/K
+  T R;       // wire resistance, ohm
+  T inv_R;   // 1 / R
+  T T_a;     // true ambient, deg C
+  T beta;    // non-linear convection, 1/K
+  T k_R;     // phase-dependent resistance
+  T L;       // latent heat of a full transformation, J
+  bool plain;  // no thermal effect: the paper's eq 1 exactly (lets the tick skip work)
+
+  explicit Thermal(const Params& p, const Effects& fx = Effects())
+      : C(from_double<T>(p.heat_capacity())),
+        inv_C(from_double<T>(1.0 / p.heat_capacity())),
+        G(from_double<T>(p.conductance())),
+        R(from_double<T>(p.R)),
+        inv_R(from_double<T>(1.0 / p.R)),
+        T_a(from_double<T>(p.T_amb + fx.ambient_offset_K)),
+        beta(from_double<T>(fx.convection_beta_per_K)),
+        k_R(from_double<T>(fx.resistance_k)),
+        L(from_double<T>(fx.latent_heat_J)),
+        plain(!fx.thermal_active()) {}
+
+  // Electrical power into the wire, V^2 / R(eps).
+  T heat_in(T V, T eps = T(0)) const {
+    const T p = V * V * inv_R;
+    return plain ? p : p / (T(1) + k_R * eps);
+  }
+  // Heat lost to the air, G (T - T_a) (1 + beta (T - T_a)).
+  T heat_loss(T Tw) const {
+    const T dT = Tw - T_a;
+    return plain ? G * dT : G * dT * (T(1) + beta * dT);
+  }
+  // dT/dt of eq 1 without the latent term (the plant adds that, knowing dEps/dt).
+  T rate(T Tw, T V, T eps = T(0)) const { return (heat_in(V, eps) - heat_loss(Tw)) * inv_C; }
+
+  // Steady state of the paper's eq 1 at constant V: T_a + V^2 / (R G).
+  T steady_state(T V) const { return T_a + V * V * inv_R / G; }
+  // Time constant tau = C_th / G.
+  T time_constant() const { return C / G; }
+
+  // Eq 17 (+ effects): the voltage that makes the wire follow a temperature path with slope
+  // dTdt, given the fraction eps and its rate along the path. Zero when the wire must cool
+  // faster than passive convection allows; the caller clamps to V_max.
+  T voltage_for(T Tw, T dTdt, T eps = T(0), T deps_dt = T(0)) const {
+    T power = C * dTdt + heat_loss(Tw);
+    if (!plain) power = power + L * deps_dt;
+    if (!(power > T(0))) return T(0);  // also catches NaN
+    const T r = plain ? R : R * (T(1) + k_R * eps);
+    return sqrt(r * power);
+  }
+};
+
+// Eq 1 discretised exactly for a constant V over dt (zero-order hold, as the PWM holds V for
+// one tick): T' = T_a + a (T - T_a) + b V^2, a = exp(-dt/tau), b = (1 - a) / (R G).
+// Used by the on-board temperature estimate: two multiplies a tick, exact for any dt.
+template <class T>
+struct ThermalStep {
+  T a, b, T_a;
+  ThermalStep(const Params& p, double dt, const Effects& fx = Effects()) {
+    const double tau = p.heat_capacity() / p.conductance();
+    const double ad = ::exp(-dt / tau);
+    a = from_double<T>(ad);
+    b = from_double<T>((1.0 - ad) / (p.R * p.conductance()));
+    T_a = from_double<T>(p.T_amb + fx.ambient_offset_K);
+  }
+  T operator()(T Tw, T V) const { return T_a + a * (Tw - T_a) + b * V * V; }
+};
+
+}  // namespace sma
+
+#endif  // SMA_THERMAL_HPP

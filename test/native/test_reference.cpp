@@ -1,0 +1,47 @@
+// Reference generators: the paper's two tests and user trajectories.
+#include <gtest/gtest.h>
+#include <math.h>
+#include "sma/reference.hpp"
+
+TEST(Reference, MultiStepIsThePapersSequence) {
+  const sma::ReferenceGen<double> r(sma::Reference::multi_step());
+  const double levels[] = {0.2, 0.4, 0.6, 0.8, 0.5, 0.3};
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_EQ(r.at(25.0 * k + 0.01), levels[k]);
+    EXPECT_EQ(r.at(25.0 * k + 24.99), levels[k]);
+  }
+  EXPECT_EQ(r.at(1000.0), 0.3);  // held after the end
+  EXPECT_EQ(sma::Reference::multi_step().duration(), 150.0);
+}
+
+TEST(Reference, SineSpansPointTwoToPointSevenWithA50sPeriod) {
+  const sma::ReferenceGen<double> r(sma::Reference::sine());
+  EXPECT_NEAR(r.at(0.0), 0.2, 1e-12);   // starts at the bottom: no jump at t = 0
+  EXPECT_NEAR(r.at(25.0), 0.7, 1e-12);
+  EXPECT_NEAR(r.at(50.0), 0.2, 1e-12);
+  EXPECT_NEAR(r.at(112.5), 0.45, 1e-12);
+  double lo = 1, hi = 0;
+  for (double t = 0; t < 150; t += 0.01) {
+    lo = fmin(lo, r.at(t));
+    hi = fmax(hi, r.at(t));
+  }
+  EXPECT_NEAR(lo, 0.2, 1e-9);
+  EXPECT_NEAR(hi, 0.7, 1e-7);
+}
+
+TEST(Reference, TrajectoryInterpolatesAndRejectsBadPoints) {
+  sma::Reference ref;
+  ref.kind = sma::RefKind::Trajectory;
+  EXPECT_TRUE(ref.add_point(0.0, 0.1));
+  EXPECT_TRUE(ref.add_point(10.0, 0.5));
+  EXPECT_FALSE(ref.add_point(10.0, 0.6));  // time must increase
+  EXPECT_FALSE(ref.add_point(NAN, 0.6));
+  EXPECT_FALSE(ref.add_point(12.0, INFINITY));
+  EXPECT_EQ(ref.n_points, 2);
+  const sma::ReferenceGen<double> r(ref);
+  EXPECT_NEAR(r.at(5.0), 0.3, 1e-12);
+  EXPECT_NEAR(r.at(-1.0), 0.1, 1e-12);
+  EXPECT_NEAR(r.at(20.0), 0.5, 1e-12);
+  for (int k = 0; k < 20; ++k) ref.add_point(11.0 + k, 0.2);
+  EXPECT_EQ(ref.n_points, sma::kMaxPoints);  // full: further points refused
+}

@@ -1,0 +1,103 @@
+// Thermal model (eq 1) and its inverse (eq 17): steady states, exact discretisation, energy.
+#include <gtest/gtest.h>
+#include <math.h>
+#include "sma/plant.hpp"
+#include "sma/thermal.hpp"
+
+namespace {
+const sma::Params kP;
+}
+
+TEST(Thermal, SteadyStatesOfEq1MatchModelMd) {
+  const sma::Thermal<double> th(kP);
+  EXPECT_NEAR(th.steady_state(1.0), 49.56, 5e-3);
+  EXPECT_NEAR(th.steady_state(1.45), 79.94, 5e-3);
+  EXPECT_NEAR(th.steady_state(2.0), 132.24, 5e-3);
+  // At the steady state the rate of eq 1 is zero.
+  EXPECT_NEAR(th.rate(th.steady_state(1.3), 1.3), 0.0, 1e-12);
+}
+
+TEST(Thermal, RateHasTheSignOfThePowerBalance) {
+  const sma::Thermal<double> th(kP);
+  EXPECT_GT(th.rate(22.0, 1.0), 0.0);  // heating from ambient
+  EXPECT_LT(th.rate(60.0, 0.0), 0.0);  // cooling with heater off
+  EXPECT_NEAR(th.rate(22.0, 0.0), 0.0, 1e-15);
+}
+
+TEST(Thermal, ExactStepMatchesFineIntegration) {
+  const sma::ThermalStep<double> step(kP, 0.01);
+  const sma::Thermal<double> th(kP);
+  double T_exact = 22.0, T_fine = 22.0;
+  for (int k = 0; k < 1000; ++k) {  // 10 s at 1.5 V
+    T_exact = step(T_exact, 1.5);
+    for (int j = 0; j < 100; ++j) {  // RK2 at 0.1 ms
+      const double r1 = th.rate(T_fine, 1.5);
+      const double r2 = th.rate(T_fine + 1e-4 * r1, 1.5);
+      T_fine += 0.5e-4 * (r1 + r2);
+    }
+  }
+  EXPECT_NEAR(T_exact, T_fine, 1e-6);
+  // After 10 s (2.4 tau) the first-order response is 1 - exp(-10/tau) of the way.
+  const double Tss = th.steady_state(1.5);
+  EXPECT_NEAR((T_exact - 22.0) / (Tss - 22.0), 1.0 - exp(-10.0 / 4.1206), 1e-4);
+}
+
+TEST(Thermal, InverseEq17GivesTheVoltageThatProducesTheRequestedSlope) {
+  const sma::Thermal<double> th(kP);
+  for (double T = 25; T < 120; T += 7.3)
+    for (double slope = -0.5; slope < 20; slope += 1.7) {
+      const double V = th.voltage_for(T, slope);
+      if (V > 0) {
+        EXPECT_NEAR(th.rate(T, V), slope, 1e-9) << T << " " << slope;
+      } else {
+        EXPECT_LE(slope, th.rate(T, 0.0) + 1e-12);  // faster cooling than passive: V = 0
+      }
+    }
+  // Steady holding voltage: eq 17 with dT/dt = 0 inverts the steady state.
+  EXPECT_NEAR(th.voltage_for(th.steady_state(1.2), 0.0), 1.2, 1e-12);
+  EXPECT_EQ(th.voltage_for(NAN, 0.0), 0.0);
+}
+
+TEST(Thermal, EffectsChangeThePowerBalanceAsNamed) {
+  sma::Effects fx;
+  fx.ambient_offset_K = 3.0;
+  EXPECT_NEAR(sma::Thermal<double>(kP, fx).steady_state(0.0), 25.0, 1e-12);
+  fx = sma::Effects();
+  fx.convection_beta_per_K = 0.01;  // more loss when hot: lower steady state at 1.5 V
+  const sma::Thermal<double> conv(kP, fx), plain(kP);
+  EXPECT_GT(conv.heat_loss(80.0), plain.heat_loss(80.0));
+  EXPECT_NEAR(conv.heat_loss(80.0), plain.heat_loss(80.0) * (1 + 0.01 * 58.0), 1e-12);
+  fx = sma::Effects();
+  fx.resistance_k = 0.2;  // R(eps = 1) = 1.2 R: less power at the same V
+  const sma::Thermal<double> res(kP, fx);
+  EXPECT_NEAR(res.heat_in(1.0, 1.0), 1.0 / 1.2, 1e-12);
+  EXPECT_NEAR(res.heat_in(1.0, 0.0), 1.0, 1e-12);
+  // Eq 17 with the effect still inverts its own forward model.
+  EXPECT_NEAR(res.rate(60.0, res.voltage_for(60.0, 3.0, 0.5), 0.5), 3.0, 1e-9);
+}
+
+// Energy balance of the plant: electrical energy in - heat lost = C_th dT (+ L d(eps) with
+// latent heat), integrated along a run that crosses the transformation both ways.
+class EnergyBalance : public ::testing::TestWithParam<double> {};
+
+TEST_P(EnergyBalance, PlantConservesEnergy) {
+  sma::Effects fx;
+  fx.latent_heat_J = GetParam();
+  sma::Plant plant(kP, fx);
+  const sma::Thermal<double> th(kP, fx);
+  const double dt = 1e-3;  // the plant sub-steps at 1 ms, integrate the books at the same rate
+  double e_in = 0, e_loss = 0;
+  const double T0 = plant.temperature(), eps0 = plant.fraction();
+  for (int k = 0; k < 60000; ++k) {
+    const double V = k < 30000 ? 1.6 : 0.2;
+    const double T_before = plant.temperature();
+    plant.step(V, dt);
+    const double T_mid = 0.5 * (T_before + plant.temperature());
+    e_in += th.heat_in(V) * dt;
+    e_loss += th.heat_loss(T_mid) * dt;
+  }
+  const double stored = th.C * (plant.temperature() - T0) + fx.latent_heat_J * (plant.fraction() - eps0);
+  // Budget: the run moves ~ 60 J through the wire; trapezoidal books at 1 ms are good to 1e-3.
+  EXPECT_NEAR(e_in - e_loss, stored, 0.05) << "in " << e_in << " loss " << e_loss;
+}
+INSTANTIATE_TEST_SUITE_P(WithAndWithoutLatentHeat, EnergyBalance, ::testing::Values(0.0, 1.0, 3.0));
