@@ -93,3 +93,20 @@ TEST(Controller, WireTemperatureEstimateFollowsEq1) {
   for (int k = 0; k < 10000; ++k) ctl.step(0.0, 0.0);  // 100 s = 24 tau
   EXPECT_NEAR(ctl.wire_temperature(), 49.56, 0.01);
 }
+
+TEST(Controller, NonPhysicalParametersKeepTheHeaterOff) {
+  sma::Params bad;
+  bad.T_AF = bad.T_AS;  // would divide by zero in eqs 2 and 15
+  sma::Controller<double> ctl(bad, sma::Effects(), config());
+  EXPECT_FALSE(ctl.valid());
+  ctl.set_mode(sma::Mode::FeedforwardPid, 0.0);
+  EXPECT_EQ(ctl.mode(), sma::Mode::Off);
+  for (int k = 0; k < 100; ++k) EXPECT_EQ(ctl.step(0.5, 0.1), 0.0);
+  sma::ControllerConfig c = config();
+  c.gains.kp = -1;
+  EXPECT_FALSE(sma::Controller<double>(kP, sma::Effects(), c).valid());
+  sma::Effects fx;
+  fx.sensor_lag_s = NAN;
+  EXPECT_FALSE(sma::Controller<double>(kP, fx, config()).valid());
+  EXPECT_TRUE(sma::Controller<double>(kP, sma::Effects(), config()).valid());
+}

@@ -52,13 +52,18 @@ class Controller {
         pid_(cfg.gains, cfg.dt),
         thermal_step_(p, cfg.dt, fx),
         T_wire_(from_double<T>(p.T_amb + fx.ambient_offset_K)),
-        v_max_(from_double<T>(cfg.v_max)) {}
+        v_max_(from_double<T>(cfg.v_max)),
+        valid_(p.check() == nullptr && fx.check() == nullptr && cfg.check() == nullptr) {}
+
+  // False when built from a non-physical set (Params/Effects/ControllerConfig::check()): the
+  // controller then stays Off and outputs 0 V whatever it is asked.
+  bool valid() const { return valid_; }
 
   // Switch mode. The measurement lets the new mode start smoothly: the inverse's loop memory
   // restarts from the measured fraction at the estimated wire temperature, the PID from the
   // last V.
   void set_mode(Mode m, T measurement) {
-    if (m == mode_) return;
+    if (m == mode_ || !valid_) return;
     const bool ff = m == Mode::Feedforward || m == Mode::FeedforwardPid;
     const bool had_ff = mode_ == Mode::Feedforward || mode_ == Mode::FeedforwardPid;
     if (ff && !had_ff) inverse_.reset(T_wire_, mech_.fraction(measurement));
@@ -132,6 +137,7 @@ class Controller {
   ThermalStep<T> thermal_step_;
   T T_wire_;
   T v_max_;
+  bool valid_;
   Mode mode_ = Mode::Off;
   T v_open_ = T(0), v_ = T(0), v1_ = T(0), v2_ = T(0);
 };
