@@ -27,9 +27,10 @@ struct Effects {
   // (released on the way back): C_th dT/dt gains the term - L_J d(eps)/dt.
   double latent_heat_J = 0.0;
 
-  bool thermal_active() const {
-    return ambient_offset_K != 0.0 || convection_beta_per_K != 0.0 || resistance_k != 0.0 ||
-           latent_heat_J != 0.0;
+  bool thermal_active() const { return ambient_offset_K != 0.0 || nonlinear_thermal(); }
+  // Effects that make eq 1 non-linear (an ambient offset only shifts T_a).
+  bool nonlinear_thermal() const {
+    return convection_beta_per_K != 0.0 || resistance_k != 0.0 || latent_heat_J != 0.0;
   }
   // nullptr when physical, else a message naming the parameter.
   const char* check() const {

@@ -25,7 +25,7 @@ struct Thermal {
   T beta;    // non-linear convection, 1/K
   T k_R;     // phase-dependent resistance
   T L;       // latent heat of a full transformation, J
-  bool plain;  // no thermal effect: the paper's eq 1 exactly (lets the tick skip work)
+  bool plain;  // eq 1 is linear (at most an ambient offset): lets the tick skip work
 
   explicit Thermal(const Params& p, const Effects& fx = Effects())
       : C(from_double<T>(p.heat_capacity())),
@@ -37,7 +37,7 @@ struct Thermal {
         beta(from_double<T>(fx.convection_beta_per_K)),
         k_R(from_double<T>(fx.resistance_k)),
         L(from_double<T>(fx.latent_heat_J)),
-        plain(!fx.thermal_active()) {}
+        plain(!fx.nonlinear_thermal()) {}
 
   // Electrical power into the wire, V^2 / R(eps).
   T heat_in(T V, T eps = T(0)) const {

@@ -1,0 +1,363 @@
+// The discrepancy workflow (interfaces.md, `tools/sma discrepancy`): find where the model and a
+// rig log disagree, name the missing physical effect, add it with fitted parameters, repeat.
+//
+//   1. simulate the log's voltage with the model (sma::Plant: the library's own formulas, with
+//      the candidate effects of effects.hpp; no second copy of the model here);
+//   2. split the log into alternating blocks: even blocks fit, odd blocks judge (the simulation
+//      always runs over the whole log, so the state is continuous);
+//   3. fit every effect of the vocabulary that is not in the model yet (Eigen's
+//      Levenberg-Marquardt, a few starting points), jointly with the effects already added;
+//   4. add the candidate with the lowest held-out RMS if it shrinks the held-out RMS clearly
+//      (min_gain) and its BIC on the held-out residual improves; stop when none does or when
+//      the gap is at the noise. Noise cannot be "explained" on blocks it was not fitted on.
+//   5. candidates whose held-out RMS is within `ambiguity` of the winner's are reported as
+//      not separable on this log, with the excitation that would separate them.
+#ifndef SMA_HOST_DISCREPANCY_HPP
+#define SMA_HOST_DISCREPANCY_HPP
+
+#include <math.h>
+#include <Eigen/Dense>
+#include <algorithm>
+#include <string>
+#include <unsupported/Eigen/NonLinearOptimization>
+#include <unsupported/Eigen/NumericalDiff>
+#include <vector>
+#include "sma/effects.hpp"
+#include "sma/hysteresis.hpp"
+#include "sma/params.hpp"
+#include "sma/plant.hpp"
+#include "signals.hpp"
+
+namespace sma_host {
+
+// A rig log in memory (interfaces.md: t_s, v_V, d_mm).
+struct RigLog {
+  std::vector<double> t, v, d;
+  size_t size() const { return t.size(); }
+};
+
+// ---- the vocabulary as fit problems --------------------------------------------------------
+
+struct EffectSpec {
+  const char* name;          // interfaces.md vocabulary
+  int n;                     // parameters (1 or 2)
+  const char* param[2];      // JSON names
+  double sma::Effects::*field[2];
+  double lo[2], hi[2];       // physical bounds
+  double scale[2];           // typical size: the optimiser works on value / scale
+  double start[2][2];        // starting points [start][param]
+  int n_starts;
+  const char* separate;      // what excitation tells it from its look-alikes
+};
+
+inline const std::vector<EffectSpec>& vocabulary() {
+  using E = sma::Effects;
+  static const std::vector<EffectSpec> v = {
+      {"sensor_delay", 1, {"delay_s", ""}, {&E::sensor_delay_s, nullptr}, {0, 0}, {2, 0}, {0.1, 1},
+       {{0.05, 0}, {0.4, 0}}, 2, "a sharp voltage step: a delay shifts the whole edge, a lag rounds it"},
+      {"sensor_lag", 1, {"tau_s", ""}, {&E::sensor_lag_s, nullptr}, {0, 0}, {5, 0}, {0.2, 1},
+       {{0.1, 0}, {1.0, 0}}, 2, "a sharp voltage step: a lag rounds the edge, a delay shifts it"},
+      {"sensor_calibration", 2, {"gain", "offset_mm"}, {&E::sensor_gain, &E::sensor_offset_mm},
+       {0.5, -2}, {2, 2}, {0.1, 0.05}, {{1.0, 0.0}, {1.1, 0.0}}, 2,
+       "holds at both ends of the stroke (cold and fully transformed)"},
+      {"ambient_offset", 1, {"offset_K", ""}, {&E::ambient_offset_K, nullptr}, {-30, 0}, {30, 0}, {2, 1},
+       {{-3, 0}, {3, 0}}, 2, "steady holds at several voltages: an offset shifts all steady states equally"},
+      {"convection_nonlinear", 1, {"beta_per_K", ""}, {&E::convection_beta_per_K, nullptr}, {0, 0},
+       {0.05, 0}, {0.005, 1}, {{0.002, 0}, {0.01, 0}}, 2,
+       "steady holds at several voltages: its loss grows with the temperature rise"},
+      {"resistance_phase", 1, {"k_R", ""}, {&E::resistance_k, nullptr}, {-0.5, 0}, {1.0, 0}, {0.1, 1},
+       {{-0.1, 0}, {0.1, 0}}, 2, "holds inside the transformation band at a constant voltage"},
+      {"latent_heat", 1, {"L_J", ""}, {&E::latent_heat_J, nullptr}, {0, 0}, {20, 0}, {1, 1},
+       {{0.5, 0}, {3.0, 0}}, 2, "fast voltage steps through the transformation band"},
+  };
+  return v;
+}
+
+inline const EffectSpec* find_effect(const std::string& name) {
+  for (const EffectSpec& e : vocabulary())
+    if (name == e.name) return &e;
+  return nullptr;
+}
+
+// ---- simulation ----------------------------------------------------------------------------
+
+// What the model says the sensor reads for the log's voltage history. The wire starts at rest:
+// at ambient if the first reading is near zero, else on the heating curve at the first
+// reading's fraction (a log that starts mid-transformation).
+inline std::vector<double> predict(const sma::Params& p, const sma::Effects& fx, const RigLog& log) {
+  sma::Plant plant(p, fx);
+  const double d0 = log.size() ? (log.d[0] - fx.sensor_offset_mm) / fx.sensor_gain : 0.0;
+  const double eps0 = sma::clamp(d0 / p.g, 0.0, 1.0);
+  if (eps0 > 0.02) {
+    const sma::PhaseCurves<double> curves(p);
+    plant.reset(curves.heat_temperature(eps0), eps0);
+  }
+  std::vector<double> out(log.size());
+  for (size_t k = 0; k < log.size(); ++k) {
+    out[k] = plant.measure_clean();
+    if (k + 1 < log.size()) plant.step(log.v[k], log.t[k + 1] - log.t[k]);
+  }
+  return out;
+}
+
+// A log simulated by the plant (for tests and demos): the voltage signal, hidden effects, noise.
+inline RigLog simulate_log(const sma::Params& p, const sma::Effects& fx, const VoltageSignal& s,
+                           double noise_mm, uint64_t seed = 1) {
+  sma::RigOptions rig;
+  rig.noise_mm = noise_mm;
+  rig.seed = seed;
+  sma::Plant plant(p, fx, rig);
+  RigLog log;
+  for (size_t k = 0; k < s.t.size(); ++k) {
+    log.t.push_back(s.t[k]);
+    log.v.push_back(s.v[k]);
+    log.d.push_back(plant.measure());
+    if (k + 1 < s.t.size()) plant.step(s.v[k], s.t[k + 1] - s.t[k]);
+  }
+  return log;
+}
+
+// White-noise level of a log: robust (MAD) scale of successive differences / sqrt 2.
+inline double noise_level(const RigLog& log) {
+  std::vector<double> dd;
+  for (size_t k = 1; k < log.size(); ++k) dd.push_back(fabs(log.d[k] - log.d[k - 1]));
+  if (dd.empty()) return 0;
+  std::nth_element(dd.begin(), dd.begin() + static_cast<long>(dd.size() / 2), dd.end());
+  return dd[dd.size() / 2] / 0.6745 / sqrt(2.0);
+}
+
+// ---- fitting -------------------------------------------------------------------------------
+
+struct Options {
+  double block_s = 10.0;    // train / held-out block length
+  double min_gain = 0.10;   // a candidate must cut the held-out RMS by at least this fraction
+  double ambiguity = 0.05;  // runner-ups within this fraction of the winner's RMS are look-alikes
+  int max_effects = 3;
+  int max_residuals = 6000; // residuals per fit (the log is strided down to this)
+};
+
+struct Split {
+  std::vector<size_t> train, test;
+};
+
+inline Split split_blocks(const RigLog& log, const Options& o) {
+  Split s;
+  std::vector<size_t> train, test;
+  for (size_t k = 0; k < log.size(); ++k)
+    ((static_cast<long>((log.t[k] - log.t[0]) / o.block_s) % 2) ? test : train).push_back(k);
+  const size_t stride = std::max<size_t>(1, train.size() / static_cast<size_t>(o.max_residuals));
+  for (size_t i = 0; i < train.size(); i += stride) s.train.push_back(train[i]);
+  s.test = test;
+  return s;
+}
+
+inline double rms_on(const std::vector<double>& pred, const RigLog& log, const std::vector<size_t>& idx) {
+  double sum = 0;
+  for (size_t k : idx) sum += (log.d[k] - pred[k]) * (log.d[k] - pred[k]);
+  return idx.empty() ? 0 : sqrt(sum / static_cast<double>(idx.size()));
+}
+
+// One effect of the model with its fitted parameters.
+struct FittedEffect {
+  const EffectSpec* spec;
+  double value[2];
+  double ci95[2];  // half-width of the 95 % interval
+};
+
+inline void apply(sma::Effects& fx, const FittedEffect& f) {
+  for (int i = 0; i < f.spec->n; ++i) fx.*(f.spec->field[i]) = f.value[i];
+}
+
+inline sma::Effects effects_of(const std::vector<FittedEffect>& list) {
+  sma::Effects fx;
+  for (const FittedEffect& f : list) apply(fx, f);
+  return fx;
+}
+
+struct FitOutcome {
+  std::vector<FittedEffect> effects;
+  double rms_train = INFINITY, rms_test = INFINITY, rms_all = INFINITY;
+  double max_corr = 0;            // largest |correlation| between two fitted parameters
+  std::string corr_pair;          // which two
+};
+
+namespace detail {
+
+// Residuals on the training indices for the parameter vector x (scaled), as Eigen's LM wants.
+struct Residuals {
+  typedef double Scalar;
+  enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
+  typedef Eigen::VectorXd InputType;
+  typedef Eigen::VectorXd ValueType;
+  typedef Eigen::MatrixXd JacobianType;
+
+  const sma::Params* p;
+  const RigLog* log;
+  const std::vector<size_t>* idx;
+  std::vector<FittedEffect> slots;  // value[] overwritten from x
+  int n_in;
+
+  int inputs() const { return n_in; }
+  int values() const { return static_cast<int>(idx->size()); }
+
+  sma::Effects effects(const Eigen::VectorXd& x) const {
+    std::vector<FittedEffect> s = slots;
+    int j = 0;
+    for (FittedEffect& f : s)
+      for (int i = 0; i < f.spec->n; ++i, ++j)
+        f.value[i] = sma::clamp(x[j] * f.spec->scale[i], f.spec->lo[i], f.spec->hi[i]);
+    return effects_of(s);
+  }
+  int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& r) const {
+    const std::vector<double> pred = predict(*p, effects(x), *log);
+    for (size_t i = 0; i < idx->size(); ++i) r[static_cast<long>(i)] = log->d[(*idx)[i]] - pred[(*idx)[i]];
+    return 0;
+  }
+};
+
+}  // namespace detail
+
+// Fit the parameters of `effects` (their values are starting points) on the training blocks.
+inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> effects, const RigLog& log,
+                              const Split& split) {
+  detail::Residuals f{&p, &log, &split.train, effects, 0};
+  for (const FittedEffect& e : effects) f.n_in += e.spec->n;
+  Eigen::VectorXd x(f.n_in);
+  int j = 0;
+  for (const FittedEffect& e : effects)
+    for (int i = 0; i < e.spec->n; ++i) x[j++] = e.value[i] / e.spec->scale[i];
+  if (f.n_in > 0) {
+    Eigen::NumericalDiff<detail::Residuals> nd(f, 1e-4);
+    Eigen::LevenbergMarquardt<Eigen::NumericalDiff<detail::Residuals>> lm(nd);
+    lm.parameters.maxfev = 60 * (f.n_in + 1);
+    lm.parameters.xtol = 1e-6;
+    lm.minimize(x);
+  }
+  FitOutcome out;
+  j = 0;
+  for (FittedEffect& e : effects)
+    for (int i = 0; i < e.spec->n; ++i, ++j)
+      e.value[i] = sma::clamp(x[j] * e.spec->scale[i], e.spec->lo[i], e.spec->hi[i]);
+  const std::vector<double> pred = predict(p, effects_of(effects), log);
+  out.rms_train = rms_on(pred, log, split.train);
+  out.rms_test = rms_on(pred, log, split.test);
+  std::vector<size_t> all(log.size());
+  for (size_t k = 0; k < all.size(); ++k) all[k] = k;
+  out.rms_all = rms_on(pred, log, all);
+  // Confidence: covariance s^2 (J^T J)^-1 from a finite-difference Jacobian at the optimum.
+  if (f.n_in > 0) {
+    Eigen::MatrixXd J(split.train.size(), f.n_in);
+    Eigen::VectorXd r0(split.train.size()), r1(split.train.size());
+    f(x, r0);
+    for (int c = 0; c < f.n_in; ++c) {
+      Eigen::VectorXd xh = x;
+      const double h = 1e-3 * std::max(1.0, fabs(x[c]));
+      xh[c] += h;
+      f(xh, r1);
+      J.col(c) = (r1 - r0) / h;
+    }
+    const double dof = std::max<double>(1, static_cast<double>(split.train.size()) - f.n_in);
+    const Eigen::MatrixXd cov = (J.transpose() * J).completeOrthogonalDecomposition().pseudoInverse() *
+                                (r0.squaredNorm() / dof);
+    j = 0;
+    for (FittedEffect& e : effects)
+      for (int i = 0; i < e.spec->n; ++i, ++j) e.ci95[i] = 1.96 * sqrt(fmax(cov(j, j), 0.0)) * e.spec->scale[i];
+    for (int a = 0; a < f.n_in; ++a)
+      for (int b = a + 1; b < f.n_in; ++b) {
+        const double c = cov(a, b) / sqrt(fmax(cov(a, a) * cov(b, b), 1e-300));
+        if (fabs(c) > out.max_corr) {
+          out.max_corr = fabs(c);
+          out.corr_pair = std::to_string(a) + "-" + std::to_string(b);
+        }
+      }
+  }
+  out.effects = effects;
+  return out;
+}
+
+// ---- selection -----------------------------------------------------------------------------
+
+struct CandidateScore {
+  std::string name;
+  double rms_test;
+  FitOutcome fit;
+};
+
+struct Step {
+  FittedEffect added;
+  double rms_before, rms_after;  // over the whole log
+  std::vector<std::string> lookalikes;  // not separable from `added` on this log
+  std::vector<CandidateScore> candidates;
+};
+
+struct Diagnosis {
+  double noise_mm = 0;
+  double rms_nominal = 0, rms_final = 0;  // over the whole log
+  std::vector<Step> steps;
+  std::vector<FittedEffect> effects;      // final, jointly refitted
+  std::vector<double> nominal, corrected; // predictions
+};
+
+// BIC of a held-out residual with k extra parameters; n_eff discounts the autocorrelation of
+// model errors (one independent sample per 2 s of log, half of them held out).
+inline double bic(double rms, double n_eff, int k) { return n_eff * ::log(rms * rms + 1e-30) + k * ::log(n_eff); }
+
+template <class Progress>
+Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Progress progress) {
+  Diagnosis d;
+  d.noise_mm = noise_level(log);
+  const Split split = split_blocks(log, o);
+  const double n_eff = fmax(2.0, (log.t.back() - log.t.front()) / 2.0);  // held-out half, 1 per s
+  d.nominal = predict(p, sma::Effects(), log);
+  std::vector<size_t> all(log.size());
+  for (size_t k = 0; k < all.size(); ++k) all[k] = k;
+  d.rms_nominal = rms_on(d.nominal, log, all);
+  FitOutcome current = fit_effects(p, {}, log, split);
+  while (static_cast<int>(current.effects.size()) < o.max_effects) {
+    if (current.rms_test < 1.15 * d.noise_mm) break;  // nothing left above the noise
+    std::vector<CandidateScore> scores;
+    for (const EffectSpec& spec : vocabulary()) {
+      bool have = false;
+      for (const FittedEffect& e : current.effects) have = have || e.spec == &spec;
+      if (have) continue;
+      progress(spec.name);
+      FitOutcome best;
+      for (int s = 0; s < spec.n_starts; ++s) {
+        std::vector<FittedEffect> trial = current.effects;
+        trial.push_back({&spec, {spec.start[s][0], spec.start[s][1]}, {0, 0}});
+        FitOutcome f = fit_effects(p, trial, log, split);
+        if (f.rms_test < best.rms_test) best = f;
+      }
+      scores.push_back({spec.name, best.rms_test, best});
+    }
+    std::sort(scores.begin(), scores.end(),
+              [](const CandidateScore& a, const CandidateScore& b) { return a.rms_test < b.rms_test; });
+    if (scores.empty()) break;
+    const CandidateScore& win = scores[0];
+    // Both tests on the held-out blocks; BIC charges the winner for its extra parameters.
+    const bool clear_gain = win.rms_test < (1.0 - o.min_gain) * current.rms_test;
+    const bool bic_better = bic(win.rms_test, n_eff, win.fit.effects.back().spec->n) < bic(current.rms_test, n_eff, 0);
+    if (!clear_gain || !bic_better) break;
+    Step step;
+    step.added = win.fit.effects.back();
+    step.rms_before = current.rms_all;
+    step.rms_after = win.fit.rms_all;
+    for (size_t i = 1; i < scores.size(); ++i)
+      if (scores[i].rms_test < (1.0 + o.ambiguity) * win.rms_test) step.lookalikes.push_back(scores[i].name);
+    step.candidates = scores;
+    d.steps.push_back(step);
+    current = win.fit;
+  }
+  d.effects = current.effects;
+  d.corrected = predict(p, effects_of(current.effects), log);
+  d.rms_final = rms_on(d.corrected, log, all);
+  return d;
+}
+
+inline Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o = Options()) {
+  return diagnose(p, log, o, [](const char*) {});
+}
+
+}  // namespace sma_host
+
+#endif  // SMA_HOST_DISCREPANCY_HPP
