@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <algorithm>
 #include "sma_host/hidden_effects.hpp"
+#include "sma_host/residuals.hpp"
 
 namespace {
 using namespace sma_host;
@@ -94,4 +95,25 @@ TEST(Discrepancy, LookAlikesAreReportedNotHidden) {
 TEST(Discrepancy, NoiseLevelIsEstimatedFromTheLog) {
   const RigLog log = simulate_log(kP, sma::Effects(), default_steps(), 0.003, 2);
   EXPECT_NEAR(noise_level(log), 0.003, 0.0003);
+}
+
+TEST(Residuals, WhiteNoiseHasNoMemoryAndAMissingEffectHas) {
+  sma::Effects fx;
+  fx.sensor_lag_s = 0.8;
+  const RigLog clean = simulate_log(kP, sma::Effects(), default_steps(), 0.002, 3);
+  const RigLog lagged = simulate_log(kP, fx, default_steps(), 0.002, 3);
+  const Trace model = trace(kP, sma::Effects(), clean);
+  std::vector<double> r_clean, r_lag;
+  for (size_t k = 0; k < clean.size(); ++k) {
+    r_clean.push_back(clean.d[k] - model.d[k]);
+    r_lag.push_back(lagged.d[k] - model.d[k]);
+  }
+  // Autocorrelation at 1 s: ~0 for noise, near 1 for a missing lag.
+  EXPECT_LT(fabs(cross_correlation(r_clean, r_clean, 100, 100)[0]), 0.05);
+  EXPECT_GT(cross_correlation(r_lag, r_lag, 100, 100)[0], 0.5);
+  // The regimes cover every sample, and a lag's residual lives in the transients.
+  const std::vector<RegimeRms> reg = residual_by_regime(lagged, model);
+  EXPECT_NEAR(reg[0].share + reg[1].share + reg[2].share, 1.0, 1e-12);
+  EXPECT_NEAR(reg[3].share + reg[4].share, 1.0, 1e-12);
+  EXPECT_GT(fmax(reg[0].rms_mm, reg[1].rms_mm), 2 * reg[2].rms_mm);
 }

@@ -84,7 +84,13 @@ inline const EffectSpec* find_effect(const std::string& name) {
 // What the model says the sensor reads for the log's voltage history. The wire starts at rest:
 // at ambient if the first reading is near zero, else on the heating curve at the first
 // reading's fraction (a log that starts mid-transformation).
-inline std::vector<double> predict(const sma::Params& p, const sma::Effects& fx, const RigLog& log) {
+// The model's states along a log, for the residual diagnosis and the plots.
+struct Trace {
+  std::vector<double> d, T, eps;  // sensor reading, wire temperature, austenite fraction
+};
+
+template <class Sink>
+void run_model(const sma::Params& p, const sma::Effects& fx, const RigLog& log, Sink sink) {
   sma::Plant plant(p, fx);
   const double d0 = log.size() ? (log.d[0] - fx.sensor_offset_mm) / fx.sensor_gain : 0.0;
   const double eps0 = sma::clamp(d0 / p.g, 0.0, 1.0);
@@ -92,12 +98,26 @@ inline std::vector<double> predict(const sma::Params& p, const sma::Effects& fx,
     const sma::PhaseCurves<double> curves(p);
     plant.reset(curves.heat_temperature(eps0), eps0);
   }
-  std::vector<double> out(log.size());
   for (size_t k = 0; k < log.size(); ++k) {
-    out[k] = plant.measure_clean();
+    sink(k, plant);
     if (k + 1 < log.size()) plant.step(log.v[k], log.t[k + 1] - log.t[k]);
   }
+}
+
+inline std::vector<double> predict(const sma::Params& p, const sma::Effects& fx, const RigLog& log) {
+  std::vector<double> out(log.size());
+  run_model(p, fx, log, [&](size_t k, const sma::Plant& plant) { out[k] = plant.measure_clean(); });
   return out;
+}
+
+inline Trace trace(const sma::Params& p, const sma::Effects& fx, const RigLog& log) {
+  Trace tr;
+  run_model(p, fx, log, [&](size_t, const sma::Plant& plant) {
+    tr.d.push_back(plant.measure_clean());
+    tr.T.push_back(plant.temperature());
+    tr.eps.push_back(plant.fraction());
+  });
+  return tr;
 }
 
 // A log simulated by the plant (for tests and demos): the voltage signal, hidden effects, noise.
@@ -302,8 +322,22 @@ struct Diagnosis {
 // model errors (one independent sample per 2 s of log, half of them held out).
 inline double bic(double rms, double n_eff, int k) { return n_eff * ::log(rms * rms + 1e-30) + k * ::log(n_eff); }
 
+// The effects already present in `fx` (parameters that differ from the paper's model), as
+// starting points: a params file with effects is refined, not thrown away.
+inline std::vector<FittedEffect> present_effects(const sma::Effects& fx) {
+  const sma::Effects none;
+  std::vector<FittedEffect> out;
+  for (const EffectSpec& s : vocabulary()) {
+    bool on = false;
+    for (int i = 0; i < s.n; ++i) on = on || fx.*(s.field[i]) != none.*(s.field[i]);
+    if (on) out.push_back({&s, {fx.*(s.field[0]), s.n > 1 ? fx.*(s.field[1]) : 0.0}, {0, 0}});
+  }
+  return out;
+}
+
 template <class Progress>
-Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Progress progress) {
+Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Progress progress,
+                   const sma::Effects& start = sma::Effects()) {
   Diagnosis d;
   d.noise_mm = noise_level(log);
   const Split split = split_blocks(log, o);
@@ -312,7 +346,7 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
   std::vector<size_t> all(log.size());
   for (size_t k = 0; k < all.size(); ++k) all[k] = k;
   d.rms_nominal = rms_on(d.nominal, log, all);
-  FitOutcome current = fit_effects(p, {}, log, split);
+  FitOutcome current = fit_effects(p, present_effects(start), log, split);
   while (static_cast<int>(current.effects.size()) < o.max_effects) {
     if (current.rms_test < 1.15 * d.noise_mm) break;  // nothing left above the noise
     std::vector<CandidateScore> scores;

@@ -1,0 +1,265 @@
+// sma_discrepancy LOG.csv [--params PARAMS.json] --out DIR [--max-effects N] [--min-gain F]
+//                 [--block-s S] [--no-plots]
+// The discrepancy workflow of interfaces.md: simulate the log with the model, show where it
+// disagrees, name the missing effect(s), add them with fitted parameters, refit, repeat.
+// Writes DIR/report.json (the contract), DIR/report.md, DIR/params.json (the corrected model),
+// DIR/trace.csv and DIR/analysis.json (for the plots), and DIR/*.png through
+// plot_discrepancy.py. Exit code: 0 done, 1 bad input (message names file, line, problem).
+#include <sys/stat.h>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include "sma_host/discrepancy.hpp"
+#include "sma_host/residuals.hpp"
+#include "sma_tools/cli.hpp"
+#include "sma_tools/json.hpp"
+#include "sma_tools/params_json.hpp"
+#include "sma_tools/rig_log.hpp"
+
+namespace {
+using sma_tools::Error;
+using sma_tools::json::number;
+using sma_tools::json::quote;
+
+const char* kUsage =
+    "usage: sma_discrepancy LOG.csv [--params PARAMS.json] --out DIR [--max-effects N] [--min-gain F]\n"
+    "                       [--block-s S] [--no-plots]\n";
+
+std::string regimes_json(const std::vector<sma_host::RegimeRms>& r) {
+  std::string s = "{";
+  for (size_t i = 0; i < r.size(); ++i)
+    s += (i ? ", " : "") + quote(r[i].regime) + ": {\"rms_mm\": " + number(r[i].rms_mm) +
+         ", \"share\": " + number(r[i].share) + "}";
+  return s + "}";
+}
+
+std::string list_json(const std::vector<double>& v) {
+  std::string s = "[";
+  for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + number(v[i]);
+  return s + "]";
+}
+
+std::string params_json(const sma_host::FittedEffect& e, bool ci) {
+  std::string s = "{";
+  for (int i = 0; i < e.spec->n; ++i)
+    s += (i ? ", " : "") + quote(e.spec->param[i]) + ": " + number(ci ? e.ci95[i] : e.value[i]);
+  return s + "}";
+}
+
+// Four significant digits for people (the JSON keeps full precision).
+std::string num(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.4g", x);
+  return b;
+}
+
+void write_file(const std::string& path, const std::string& text) {
+  std::ofstream f(path, std::ios::binary);
+  if (!f || !(f << text)) throw Error(path + ": cannot write");
+}
+
+int run(int argc, char** argv) {
+  sma_tools::Args args(argc, argv);
+  std::string log_path, params_path, out;
+  sma_host::Options opt;
+  bool plots = true;
+  while (!args.empty()) {
+    const std::string a = args.next();
+    if (a == "--params") params_path = args.value(a);
+    else if (a == "--out") out = args.value(a);
+    else if (a == "--max-effects") opt.max_effects = static_cast<int>(args.number(a));
+    else if (a == "--min-gain") opt.min_gain = args.number(a);
+    else if (a == "--block-s") opt.block_s = args.number(a);
+    else if (a == "--no-plots") plots = false;
+    else if (a == "-h" || a == "--help") {
+      std::cout << kUsage;
+      return 0;
+    } else if (!a.empty() && a[0] == '-') throw Error("unknown option " + a + "\n" + kUsage);
+    else if (log_path.empty()) log_path = a;
+    else throw Error("one log only (got " + log_path + " and " + a + ")\n" + kUsage);
+  }
+  if (log_path.empty() || out.empty()) throw Error(std::string("missing LOG.csv or --out DIR\n") + kUsage);
+  if (!(opt.max_effects >= 0 && opt.max_effects <= 7)) throw Error("--max-effects must be 0..7");
+  if (!(opt.min_gain > 0 && opt.min_gain < 1)) throw Error("--min-gain must be in (0, 1)");
+  if (!(opt.block_s >= 1)) throw Error("--block-s must be >= 1 s");
+
+  const sma_tools::RigLog file = sma_tools::read_rig_log(log_path);
+  const std::string note = sma_tools::dropped_note(file);
+  if (!note.empty()) std::cerr << note << "\n";
+  sma_tools::Model model;
+  if (!params_path.empty()) model = sma_tools::read_model(params_path);
+  // A log must be long enough for held-out blocks and must excite the wire.
+  if (file.duration() < 4 * opt.block_s)
+    throw Error(log_path + ": " + number(file.duration()) + " s of log; at least " + number(4 * opt.block_s) +
+                " s are needed (4 blocks of --block-s)");
+  double vmin = file.v[0], vmax = file.v[0];
+  for (double v : file.v) {
+    vmin = std::min(vmin, v);
+    vmax = std::max(vmax, v);
+  }
+  if (vmax - vmin < 0.05) throw Error(log_path + ": the voltage never changes (no excitation to learn from)");
+
+  sma_host::RigLog log{file.t, file.v, file.d};
+  std::cerr << "discrepancy: " << log.size() << " samples, " << number(file.duration()) << " s\n";
+  const sma_host::Diagnosis d = sma_host::diagnose(
+      model.p, log, opt,
+      [](const char* name) { std::cerr << "\r  fitting candidate " << name << "                 " << std::flush; },
+      model.fx);
+  std::cerr << "\r" << std::string(60, ' ') << "\r";
+
+  // What a user must know before trusting the named effects.
+  std::vector<std::string> warnings;
+  for (const sma_host::FittedEffect& e : d.effects)
+    for (int i = 0; i < e.spec->n; ++i)
+      if (e.value[i] <= e.spec->lo[i] + 1e-9 || e.value[i] >= e.spec->hi[i] - 1e-9)
+        warnings.push_back(std::string(e.spec->name) + "." + e.spec->param[i] + " sits at its bound " +
+                           num(e.value[i]) + ": it stands in for a larger model error, not a measurement of it");
+  if (d.rms_final > 3 * d.noise_mm)
+    warnings.push_back("the gap left (" + num(d.rms_final) + " mm) is " + num(d.rms_final / d.noise_mm) +
+                       "x the noise: the vocabulary does not explain this log; fit the base model first "
+                       "(tools/sma fit) and run the discrepancy workflow on the fitted params");
+  double dmin = log.d[0], dmax = log.d[0];
+  for (double x : log.d) {
+    dmin = std::min(dmin, x);
+    dmax = std::max(dmax, x);
+  }
+  if (dmin < -5 * d.noise_mm - 0.01 * model.p.g || dmax > model.p.g * 1.05)
+    warnings.push_back("positions from " + num(dmin) + " to " + num(dmax) + " mm lie outside the model's stroke 0.." +
+                       num(model.p.g) + " mm: a sensor offset or a wrong g");
+  for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+
+  mkdir(out.c_str(), 0755);
+  const sma::Effects final_fx = sma_host::effects_of(d.effects);
+  const sma_host::Trace nominal = sma_host::trace(model.p, model.fx, log);
+  const sma_host::Trace corrected = sma_host::trace(model.p, final_fx, log);
+
+  // report.json: the contract's keys first, then what the human report and plots use.
+  std::ostringstream j;
+  j << "{\n  \"rms_mm_nominal\": " << number(d.rms_nominal) << ",\n  \"rms_mm_final\": " << number(d.rms_final)
+    << ",\n  \"effects\": [";
+  for (size_t i = 0; i < d.steps.size(); ++i) {
+    const sma_host::Step& s = d.steps[i];
+    sma_host::FittedEffect final_e = s.added;  // final (jointly refitted) values
+    for (const sma_host::FittedEffect& e : d.effects)
+      if (e.spec == s.added.spec) final_e = e;
+    j << (i ? "," : "") << "\n    {\"name\": " << quote(s.added.spec->name) << ", \"params\": " << params_json(final_e, false)
+      << ", \"ci95\": " << params_json(final_e, true) << ", \"rms_mm_before\": " << number(s.rms_before)
+      << ", \"rms_mm_after\": " << number(s.rms_after) << ", \"lookalikes\": [";
+    for (size_t k = 0; k < s.lookalikes.size(); ++k) j << (k ? ", " : "") << quote(s.lookalikes[k]);
+    j << "]}";
+  }
+  j << (d.steps.empty() ? "" : "\n  ") << "],\n  \"noise_mm\": " << number(d.noise_mm) << ",\n  \"log\": " << quote(log_path)
+    << ",\n  \"samples\": " << log.size() << ",\n  \"dropped_rows\": " << file.dropped << ",\n  \"candidates\": [";
+  for (size_t i = 0; i < d.steps.size(); ++i) {
+    j << (i ? "," : "") << "\n    [";
+    for (size_t k = 0; k < d.steps[i].candidates.size(); ++k)
+      j << (k ? ", " : "") << "{\"name\": " << quote(d.steps[i].candidates[k].name)
+        << ", \"rms_mm_heldout\": " << number(d.steps[i].candidates[k].rms_test) << "}";
+    j << "]";
+  }
+  j << "\n  ],\n  \"warnings\": [";
+  for (size_t i = 0; i < warnings.size(); ++i) j << (i ? ", " : "") << quote(warnings[i]);
+  j << "]\n}\n";
+  write_file(out + "/report.json", j.str());
+
+  sma_tools::Model corrected_model = model;
+  corrected_model.fx = final_fx;
+  write_file(out + "/params.json", sma_tools::model_to_json(corrected_model));
+
+  // Residual analysis before/after and the time series for the plots.
+  std::vector<double> r0, r1;
+  for (size_t k = 0; k < log.size(); ++k) {
+    r0.push_back(log.d[k] - nominal.d[k]);
+    r1.push_back(log.d[k] - corrected.d[k]);
+  }
+  const double dt = file.duration() / static_cast<double>(log.size() - 1);
+  const int lag10 = static_cast<int>(10.0 / dt), lag2 = static_cast<int>(2.0 / dt);
+  const int stride = std::max(1, lag10 / 100);
+  auto thin = [stride](const std::vector<double>& v) {
+    std::vector<double> o;
+    for (size_t i = 0; i < v.size(); i += static_cast<size_t>(stride)) o.push_back(v[i]);
+    return o;
+  };
+  const std::vector<sma_host::RegimeRms> reg0 = sma_host::residual_by_regime(log, nominal),
+                                         reg1 = sma_host::residual_by_regime(log, corrected);
+  std::ostringstream a;
+  a << "{\n  \"dt_s\": " << number(dt * stride) << ",\n  \"regimes_before\": " << regimes_json(reg0)
+    << ",\n  \"regimes_after\": " << regimes_json(reg1)
+    << ",\n  \"autocorr_before\": " << list_json(thin(sma_host::cross_correlation(r0, r0, lag10)))
+    << ",\n  \"autocorr_after\": " << list_json(thin(sma_host::cross_correlation(r1, r1, lag10)))
+    << ",\n  \"xcorr_v_min_lag_s\": " << number(-lag2 * dt)
+    << ",\n  \"xcorr_v_before\": " << list_json(thin(sma_host::cross_correlation(r0, log.v, lag10, -lag2)))
+    << ",\n  \"xcorr_v_after\": " << list_json(thin(sma_host::cross_correlation(r1, log.v, lag10, -lag2))) << "\n}\n";
+  write_file(out + "/analysis.json", a.str());
+
+  std::ostringstream tr;
+  tr << "t_s,v_V,d_mm,d_nominal_mm,d_corrected_mm,T_nominal_C,eps_nominal,T_corrected_C,eps_corrected\n";
+  for (size_t k = 0; k < log.size(); ++k)
+    tr << number(log.t[k]) << "," << number(log.v[k]) << "," << number(log.d[k]) << "," << number(nominal.d[k]) << ","
+       << number(corrected.d[k]) << "," << number(nominal.T[k]) << "," << number(nominal.eps[k]) << ","
+       << number(corrected.T[k]) << "," << number(corrected.eps[k]) << "\n";
+  write_file(out + "/trace.csv", tr.str());
+
+  // The human report.
+  std::ostringstream md;
+  md << "# Discrepancy report: " << log_path << "\n\n" << log.size() << " samples over " << num(file.duration())
+     << " s";
+  if (file.dropped) md << " (" << file.dropped << " bad rows dropped)";
+  md << "; sensor noise estimated at " << num(d.noise_mm * 1000) << " um RMS.\n\n"
+     << "| | RMS gap, mm |\n|---|---|\n| paper's model | " << num(d.rms_nominal) << " |\n| with the effects below | "
+     << num(d.rms_final) << " |\n\n";
+  if (d.steps.empty()) {
+    md << "No effect of the vocabulary shrinks the gap on held-out parts of this log by " << num(100 * opt.min_gain)
+       << " % or more: nothing was added.\n\n";
+  } else {
+    md << "| # | effect | parameters (95 % interval) | RMS before, mm | RMS after, mm | not separable here from |\n"
+          "|---|---|---|---|---|---|\n";
+    for (size_t i = 0; i < d.steps.size(); ++i) {
+      const sma_host::Step& s = d.steps[i];
+      sma_host::FittedEffect e = s.added;
+      for (const sma_host::FittedEffect& f : d.effects)
+        if (f.spec == s.added.spec) e = f;
+      std::string ps, look;
+      for (int k = 0; k < e.spec->n; ++k)
+        ps += (k ? ", " : "") + std::string(e.spec->param[k]) + " = " + num(e.value[k]) + " ± " + num(e.ci95[k]);
+      for (const std::string& l : s.lookalikes) look += (look.empty() ? "" : ", ") + l;
+      md << "| " << i + 1 << " | `" << e.spec->name << "` | " << ps << " | " << num(s.rms_before) << " | "
+         << num(s.rms_after) << " | " << (look.empty() ? "-" : look) << " |\n";
+    }
+    md << "\n";
+    for (const sma_host::Step& s : d.steps)
+      if (!s.lookalikes.empty())
+        md << "- `" << s.added.spec->name << "` fits this log about as well as " << s.lookalikes.size()
+           << " other effect(s); to separate them record " << s.added.spec->separate << ".\n";
+  }
+  for (const std::string& w : warnings) md << "\n**Warning:** " << w << ".\n";
+  md << "\n## Where the gap lives (residual RMS, mm)\n\n| regime | share of log | paper's model | corrected |\n|---|---|---|---|\n";
+  for (size_t i = 0; i < reg0.size(); ++i)
+    md << "| " << reg0[i].regime << " | " << num(100 * reg0[i].share) << " % | " << num(reg0[i].rms_mm) << " | "
+       << num(reg1[i].rms_mm) << " |\n";
+  md << "\nPlots: `fit.png` (measured, paper's model, corrected), `residuals.png` (before/after, with their "
+        "autocorrelation and cross-correlation with the voltage), `loops.png` (displacement against the model's "
+        "temperature). Data: `trace.csv`, `analysis.json`; corrected model: `params.json`.\n";
+  write_file(out + "/report.md", md.str());
+
+  if (plots) {
+    const std::string cmd = "python3 \"" + std::string(SMA_DISCREPANCY_PLOT) + "\" \"" + out + "\"";
+    if (std::system(cmd.c_str()) != 0) std::cerr << "discrepancy: plotting failed (the reports are written)\n";
+  }
+  std::cout << "gap " << number(d.rms_nominal) << " mm -> " << number(d.rms_final) << " mm;";
+  for (const sma_host::FittedEffect& e : d.effects) std::cout << " " << e.spec->name;
+  if (d.effects.empty()) std::cout << " nothing added";
+  std::cout << "\nwrote " << out << "/report.json, report.md, params.json\n";
+  return 0;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "sma discrepancy: " << e.what() << "\n";
+    return 1;
+  }
+}

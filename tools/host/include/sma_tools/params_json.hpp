@@ -1,0 +1,248 @@
+// Model parameters as JSON (interfaces.md): a flat object with the keys of Table II, `m` as the
+// list m0..m5, `loops` as a list of {"T_i","T_ii","j"} and `effects` as
+// {"<effect name>": {<its parameters>}}. Missing keys keep the paper's values (sma::Params
+// defaults); an unknown key is an error naming the key; the result must pass
+// sma::Params::check() and sma::Effects::check() (their message starts with the key).
+#ifndef SMA_TOOLS_PARAMS_JSON_HPP
+#define SMA_TOOLS_PARAMS_JSON_HPP
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+#include "error.hpp"
+#include "json.hpp"
+#include "sma/effects.hpp"
+#include "sma/params.hpp"
+
+namespace sma_tools {
+
+struct Model {
+  sma::Params p;
+  sma::Effects fx;
+};
+
+// The scalar keys of the contract, in the order of interfaces.md, with their field.
+struct ParamKey {
+  const char* name;
+  double sma::Params::*field;
+};
+inline const std::vector<ParamKey>& param_keys() {
+  static const std::vector<ParamKey> keys = {
+      {"rho", &sma::Params::rho},     {"c", &sma::Params::c},       {"h", &sma::Params::h},
+      {"d0", &sma::Params::d0},       {"L0", &sma::Params::L0},     {"R", &sma::Params::R},
+      {"T_amb", &sma::Params::T_amb}, {"T_AS", &sma::Params::T_AS}, {"T_AF", &sma::Params::T_AF},
+      {"T_MS", &sma::Params::T_MS},   {"T_MF", &sma::Params::T_MF}, {"T_s", &sma::Params::T_s},
+      {"T_f", &sma::Params::T_f},     {"T_MSs", &sma::Params::T_MSs},
+      {"T_MSf", &sma::Params::T_MSf}, {"q", &sma::Params::q},       {"e", &sma::Params::e},
+      {"g", &sma::Params::g}};
+  return keys;
+}
+
+// The effects vocabulary (interfaces.md) and their JSON parameter names.
+struct EffectKey {
+  const char* effect;
+  const char* param;
+  double sma::Effects::*field;
+};
+inline const std::vector<EffectKey>& effect_keys() {
+  static const std::vector<EffectKey> keys = {
+      {"sensor_delay", "delay_s", &sma::Effects::sensor_delay_s},
+      {"sensor_lag", "tau_s", &sma::Effects::sensor_lag_s},
+      {"sensor_calibration", "gain", &sma::Effects::sensor_gain},
+      {"sensor_calibration", "offset_mm", &sma::Effects::sensor_offset_mm},
+      {"ambient_offset", "offset_K", &sma::Effects::ambient_offset_K},
+      {"convection_nonlinear", "beta_per_K", &sma::Effects::convection_beta_per_K},
+      {"resistance_phase", "k_R", &sma::Effects::resistance_k},
+      {"latent_heat", "L_J", &sma::Effects::latent_heat_J}};
+  return keys;
+}
+
+inline std::string effect_names_list() {
+  std::string out;
+  const char* last = "";
+  for (const auto& k : effect_keys()) {
+    if (std::string(k.effect) == last) continue;
+    if (!out.empty()) out += ", ";
+    out += k.effect;
+    last = k.effect;
+  }
+  return out;
+}
+
+// Sets effect parameter `effect`.`param`; throws naming what is unknown.
+inline void set_effect(sma::Effects& fx, const std::string& effect, const std::string& param,
+                       double value, const std::string& where) {
+  bool effect_known = false;
+  std::string params;
+  for (const auto& k : effect_keys()) {
+    if (effect != k.effect) continue;
+    effect_known = true;
+    if (param == k.param) {
+      fx.*k.field = value;
+      return;
+    }
+    params += params.empty() ? k.param : std::string(", ") + k.param;
+  }
+  if (!effect_known)
+    throw Error(where + "unknown effect '" + effect + "' (known: " + effect_names_list() + ")");
+  throw Error(where + "effect '" + effect + "': unknown parameter '" + param + "' (known: " +
+              params + ")");
+}
+
+// "--effect name.param=value" syntax.
+inline void set_effect_arg(sma::Effects& fx, const std::string& arg) {
+  const size_t dot = arg.find('.'), eq = arg.find('=');
+  if (dot == std::string::npos || eq == std::string::npos || eq < dot)
+    throw Error("--effect '" + arg + "': expected name.param=value, e.g. sensor_delay.delay_s=0.1");
+  const std::string val = arg.substr(eq + 1);
+  char* end = nullptr;
+  const double x = std::strtod(val.c_str(), &end);
+  if (val.empty() || *end != 0 || !std::isfinite(x))
+    throw Error("--effect '" + arg + "': '" + val + "' is not a number");
+  set_effect(fx, arg.substr(0, dot), arg.substr(dot + 1, eq - dot - 1), x, "--effect: ");
+}
+
+// Checks a model; throws "<where>: <message starting with the key>".
+inline void check_model(const Model& m, const std::string& where) {
+  if (const char* msg = m.p.check()) throw Error(where + ": " + msg);
+  if (const char* msg = m.fx.check()) throw Error(where + ": effects: " + msg);
+}
+
+inline double need_number(const json::Value& v, const std::string& where, const std::string& key) {
+  if (!v.is_number())
+    throw Error(where + ":" + std::to_string(v.line) + ": key '" + key + "' must be a number, not " +
+                json::Value::type_name(v.type));
+  return v.num;
+}
+
+// Fills `m` from a parsed object (keys not given keep their value in m).
+inline void model_from_json(const json::Value& root, Model& m, const std::string& name) {
+  if (!root.is_object())
+    throw Error(name + ": expected a JSON object of parameters, found " +
+                json::Value::type_name(root.type));
+  for (const auto& kv : root.obj) {
+    const std::string& key = kv.first;
+    const json::Value& v = kv.second;
+    const std::string at = name + ":" + std::to_string(v.line);
+    bool done = false;
+    for (const auto& k : param_keys()) {
+      if (key == k.name) {
+        m.p.*k.field = need_number(v, name, key);
+        done = true;
+        break;
+      }
+    }
+    if (done) continue;
+    if (key == "m") {
+      if (!v.is_array() || v.arr.size() != 6)
+        throw Error(at + ": key 'm' must be a list of 6 numbers m0..m5");
+      for (size_t i = 0; i < 6; ++i) m.p.m[i] = need_number(v.arr[i], name, "m");
+    } else if (key == "loops") {
+      if (!v.is_array()) throw Error(at + ": key 'loops' must be a list of {\"T_i\",\"T_ii\",\"j\"}");
+      if (v.arr.size() > sma::kMaxLoopKnots)
+        throw Error(at + ": key 'loops': at most " + std::to_string(sma::kMaxLoopKnots) + " loops");
+      m.p.n_loops = static_cast<uint8_t>(v.arr.size());
+      for (size_t i = 0; i < v.arr.size(); ++i) {
+        const json::Value& L = v.arr[i];
+        const std::string lat = name + ":" + std::to_string(L.line);
+        if (!L.is_object()) throw Error(lat + ": loops[" + std::to_string(i) + "] must be an object");
+        for (const auto& f : L.obj)
+          if (f.first != "T_i" && f.first != "T_ii" && f.first != "j")
+            throw Error(lat + ": loops[" + std::to_string(i) + "]: unknown key '" + f.first +
+                        "' (expected T_i, T_ii, j)");
+        const char* req[] = {"T_i", "T_ii", "j"};
+        double vals[3];
+        for (int r = 0; r < 3; ++r) {
+          const json::Value* f = L.find(req[r]);
+          if (!f) throw Error(lat + ": loops[" + std::to_string(i) + "]: missing key '" + req[r] + "'");
+          vals[r] = need_number(*f, name, std::string("loops.") + req[r]);
+        }
+        m.p.loops[i] = {vals[0], vals[1], vals[2]};
+      }
+    } else if (key == "effects") {
+      if (!v.is_object()) throw Error(at + ": key 'effects' must be an object {\"name\": {...}}");
+      for (const auto& e : v.obj) {
+        const std::string eat = name + ":" + std::to_string(e.second.line) + ": ";
+        if (!e.second.is_object())
+          throw Error(eat + "effect '" + e.first + "' must be an object of its parameters");
+        bool known = false;
+        for (const auto& k : effect_keys()) known = known || e.first == k.effect;
+        if (!known)
+          throw Error(eat + "unknown effect '" + e.first + "' (known: " + effect_names_list() + ")");
+        for (const auto& pv : e.second.obj)
+          set_effect(m.fx, e.first, pv.first, need_number(pv.second, name, e.first + "." + pv.first),
+                     name + ":" + std::to_string(pv.second.line) + ": ");
+      }
+    } else {
+      throw Error(at + ": unknown key '" + key +
+                  "' (known: rho c h d0 L0 R T_amb T_AS T_AF T_MS T_MF T_s T_f T_MSs T_MSf q e g "
+                  "m loops effects)");
+    }
+  }
+}
+
+inline std::string read_text_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw Error(path + ": cannot open");
+  std::ostringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// Reads and checks a params file. An empty path gives the paper's model.
+inline Model read_model(const std::string& path) {
+  Model m;
+  if (path.empty()) return m;
+  model_from_json(json::parse(read_text_file(path), path), m, path);
+  check_model(m, path);
+  return m;
+}
+
+inline Model model_from_text(const std::string& text, const std::string& name) {
+  Model m;
+  model_from_json(json::parse(text, name), m, name);
+  check_model(m, name);
+  return m;
+}
+
+// The contract's JSON. Effects that are at their identity value are left out (none: no key).
+inline std::string model_to_json(const Model& m, bool pretty = true) {
+  const std::string nl = pretty ? "\n" : "", ind = pretty ? "  " : "";
+  const std::string sep = pretty ? ": " : ":";
+  std::string out = "{" + nl;
+  for (const auto& k : param_keys())
+    out += ind + json::quote(k.name) + sep + json::number(m.p.*k.field) + "," + nl;
+  out += ind + "\"m\"" + sep + "[";
+  for (int i = 0; i < 6; ++i) out += (i ? ", " : "") + json::number(m.p.m[i]);
+  out += "]," + nl + ind + "\"loops\"" + sep + "[";
+  for (int i = 0; i < m.p.n_loops; ++i) {
+    const sma::LoopKnot& L = m.p.loops[i];
+    out += std::string(i ? ", " : "") + "{\"T_i\": " + json::number(L.T_i) +
+           ", \"T_ii\": " + json::number(L.T_ii) + ", \"j\": " + json::number(L.j) + "}";
+  }
+  out += "]";
+  const sma::Effects none;
+  std::string fx;
+  const char* open = nullptr;
+  for (const auto& k : effect_keys()) {
+    if (m.fx.*k.field == none.*k.field) continue;
+    if (!open || std::string(open) != k.effect) {
+      if (open) fx += "}, ";
+      fx += json::quote(k.effect) + sep + "{";
+      open = k.effect;
+    } else {
+      fx += ", ";
+    }
+    fx += json::quote(k.param) + sep + json::number(m.fx.*k.field);
+  }
+  if (open) out += "," + nl + ind + "\"effects\"" + sep + "{" + fx + "}}";
+  out += nl + "}" + (pretty ? "\n" : "");
+  return out;
+}
+
+}  // namespace sma_tools
+
+#endif  // SMA_TOOLS_PARAMS_JSON_HPP
