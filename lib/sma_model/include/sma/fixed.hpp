@@ -1,13 +1,18 @@
 // sma::Fixed: Q16.16 fixed point (int32_t raw value, 16 fractional bits), a drop-in for float
 // in the model templates (see scalar.hpp for the contract), designed for the ATmega328P.
 //
-// Why a fixed-point type at all: the AVR has no FPU. A soft-float multiply costs ~134 cycles,
-// cos ~1775 and acos ~2520; the Liang-Rogers model spends its time in cos/acos shapes. The
-// naive Q16.16 multiply (64-bit product) costs ~250 cycles and is *slower* than float, so every
-// routine here is built from 16x16->32 products, the widest product the AVR's 8x8 hardware
-// multiplier gives cheaply (libgcc's __umulhisi3), and never touches 64-bit integers or floats
-// on the hot path. The results are bit-identical on the host and the AVR (integer-only, all
-// constants are integer literals), which is what makes host tests valid for the firmware.
+// Why a fixed-point type at all: the AVR has no FPU. A soft-float multiply costs ~130 cycles,
+// cos ~1780 and acos ~2300; the Liang-Rogers model spends its time in cos/acos shapes. The
+// naive Q16.16 multiply (64-bit product, then a 64-bit shift) costs ~250 cycles and is *slower*
+// than float, so everything here is built from 16x16->32 products (the widest product the AVR's
+// 8x8 hardware multiplier gives cheaply), 16-bit-aligned shifts, and polynomials; no float, no
+// 64-bit integer and no division on any hot path. The results are bit-identical on the host and
+// the AVR (integer-only, all constants are integer literals), which is what makes host tests
+// valid for the firmware; bench/avr_math checks it (results hash) and the AVR assembly paths.
+//
+// Measured in simavr (bench/avr_math, avr-g++ 5.4 -Os, cycles per call, float in brackets):
+// add 52 (112), mul 195 (130), div ~900 (467), cos_ramp ~350 (~2280), cos_ramp_inv ~700 (~2880),
+// cos ~710 (~1780), acos ~980 (~2470), sqrt ~610 (473), exp ~730 (~2110).
 //
 // Range and resolution: [-32768, 32768 - 2^-16], LSB 2^-16 = 1.53e-5.
 //
@@ -17,7 +22,7 @@
 // clipped, and the controller's own clamps already expect clipping.
 //
 // Rounding: conversions round to nearest; * and / round to nearest with ties away from zero, so
-// a*b == -((-a)*b) exactly (no sign bias in a control loop).
+// (-a)*b == -(a*b) exactly (no sign bias in a control loop).
 //
 // Calling the math: cos, sin, acos, sqrt, exp, is_finite, cos_ramp and cos_ramp_inv below are
 // overloads in namespace sma. The model templates must call them unqualified (ADL), or include
@@ -32,6 +37,15 @@
 
 #include "scalar.hpp"
 
+// Small routines that must be inlined for speed regardless of -Os heuristics: the AVR multiply
+// primitives (their callers' register allocation depends on it) and the constructors (so that
+// `T(0.5)` in a model template folds to a constant instead of running soft-float code).
+#if defined(__GNUC__)
+#define SMA_FIXED_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define SMA_FIXED_ALWAYS_INLINE inline
+#endif
+
 namespace sma {
 
 // ---- integer helpers ------------------------------------------------------------------------
@@ -44,22 +58,214 @@ constexpr uint32_t kHalfQ32 = UINT32_C(0x80000000);  // 0.5 in Q0.32, also |kRaw
 
 constexpr int32_t saturated(bool negative) { return negative ? kRawMin : kRawMax; }
 
-// 16x16->32 unsigned product. On the AVR this is one call to libgcc's __umulhisi3 (four MUL
-// instructions, ~20 cycles); every wider product below is assembled from these.
-inline uint32_t mul16(uint16_t a, uint16_t b) { return static_cast<uint32_t>(a) * b; }
 constexpr uint16_t hi16(uint32_t x) { return static_cast<uint16_t>(x >> 16); }
 constexpr uint16_t lo16(uint32_t x) { return static_cast<uint16_t>(x & 0xFFFFu); }
+// uint32 -> int32 keeping the bit pattern (modular; GCC documents it for out-of-range values).
+constexpr int32_t as_signed(uint32_t x) { return static_cast<int32_t>(x); }
 
-// floor(a * b / 2^16): a 32x16 product keeping the top 32 bits, exact, two partial products.
-inline uint32_t mul32x16(uint32_t a, uint16_t b) {
-  return mul16(hi16(a), b) + (mul16(lo16(a), b) >> 16);
+// 16x16->32 unsigned product; every wider product below is assembled from these.
+// On the AVR it is written out as four 8x8 MUL instructions (the same sequence as libgcc's
+// __umulhisi3, ~20 cycles, but inline): in plain C, once inlined next to the hi16/lo16 splits,
+// avr-gcc 5.4 stops recognising a widening multiply and calls the 32x32 __mulsi3 instead.
+SMA_FIXED_ALWAYS_INLINE uint32_t mul16(uint16_t a, uint16_t b) {
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+  uint32_t p;
+  __asm__(
+      "mul  %A1, %A2  \n\t"  // a0*b0 -> bytes 0-1
+      "movw %A0, r0   \n\t"
+      "mul  %B1, %B2  \n\t"  // a1*b1 -> bytes 2-3
+      "movw %C0, r0   \n\t"
+      "mul  %A1, %B2  \n\t"  // a0*b1 -> bytes 1-3
+      "add  %B0, r0   \n\t"
+      "adc  %C0, r1   \n\t"
+      "clr  r1        \n\t"  // restore __zero_reg__ (clr leaves the carry alone)
+      "adc  %D0, r1   \n\t"
+      "mul  %B1, %A2  \n\t"  // a1*b0 -> bytes 1-3
+      "add  %B0, r0   \n\t"
+      "adc  %C0, r1   \n\t"
+      "clr  r1        \n\t"
+      "adc  %D0, r1   \n\t"
+      : "=&r"(p)
+      : "r"(a), "r"(b)
+      : "r0");
+  return p;
+#else
+  return static_cast<uint32_t>(a) * b;
+#endif
 }
 
-// (a * b) >> 32 from three partial products; the lo*lo term is dropped, so the result is at most
-// 2 units of 2^-32 low. Used where 32 bits of headroom are worth more than the last bit.
-inline uint32_t mulhi32(uint32_t a, uint32_t b) {
-  return mul16(hi16(a), hi16(b)) + (mul16(hi16(a), lo16(b)) >> 16) +
-         (mul16(lo16(a), hi16(b)) >> 16);
+// Full 32x32->64 unsigned product as two halves, from the four 16x16 partial products
+//   a*b = ah*bh << 32 + (ah*bl + al*bh) << 16 + al*bl.
+// Portable version; on the AVR, the reference the benchmark checks the assembly against.
+inline void umul32_wide_portable(uint32_t a, uint32_t b, uint32_t& hi, uint32_t& lo) {
+  const uint32_t ll = mul16(lo16(a), lo16(b));
+  const uint32_t lh = mul16(lo16(a), hi16(b));
+  const uint32_t hl = mul16(hi16(a), lo16(b));
+  const uint32_t mid = lh + hl;  // 33 bits: keep the carry
+  const uint32_t mid_carry = mid < lh ? UINT32_C(0x10000) : 0u;
+  lo = ll + (mid << 16);
+  hi = mul16(hi16(a), hi16(b)) + hi16(mid) + mid_carry + (lo < ll ? 1u : 0u);
+}
+
+inline uint32_t mul32x16_portable(uint32_t a, uint16_t b) {
+  return mul16(hi16(a), b) + hi16(mul16(lo16(a), b));
+}
+
+// On the AVR the wider products are written as their 8x8 MULs accumulating straight into the
+// result bytes. In C, built from mul16, avr-gcc keeps every 32-bit partial product in its own
+// registers and spills (the Q16.16 multiply came out at ~240 cycles, slower than the int64 one).
+// Byte grid of a 32x32 product: a_i*b_j lands at byte i+j. Used by mulhi32 and mul_raw, whose
+// asm statements name their operands a, b (inputs), p1 (byte 1), r (bytes 2..5), x (bytes 6..7)
+// and z (a zero byte). Byte 0 only ever receives the low byte of a0*b0, so it never carries and
+// is not kept.
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+#define SMA_FIXED_AVR_PRODUCT_GRID                                                            \
+  /* The diagonal lands in disjoint bytes: plain moves. */                                    \
+  "mul  %A[a], %A[b]  \n\t" /* a0b0 @0 */                                                     \
+  "mov  %[p1], r1     \n\t"                                                                   \
+  "mul  %B[a], %B[b]  \n\t" /* a1b1 @2 */                                                     \
+  "movw %A[r], r0     \n\t"                                                                   \
+  "mul  %C[a], %C[b]  \n\t" /* a2b2 @4 */                                                     \
+  "movw %C[r], r0     \n\t"                                                                   \
+  "mul  %D[a], %D[b]  \n\t" /* a3b3 @6 */                                                     \
+  "movw %A[x], r0     \n\t"                                                                   \
+  /* Rest of al*bl: bytes 0-3 hold al*bl < 2^32, nothing carries out of byte 3. */           \
+  "mul  %A[a], %B[b]  \n\t" /* a0b1 @1 */                                                     \
+  "add  %[p1], r0     \n\t"                                                                   \
+  "adc  %A[r], r1     \n\t"                                                                   \
+  "adc  %B[r], %[z]   \n\t"                                                                   \
+  "mul  %B[a], %A[b]  \n\t" /* a1b0 @1 */                                                     \
+  "add  %[p1], r0     \n\t"                                                                   \
+  "adc  %A[r], r1     \n\t"                                                                   \
+  "adc  %B[r], %[z]   \n\t"                                                                   \
+  /* Rest of ah*bh: bytes 4-7 hold ah*bh < 2^32, nothing carries out of byte 7. */           \
+  "mul  %C[a], %D[b]  \n\t" /* a2b3 @5 */                                                     \
+  "add  %D[r], r0     \n\t"                                                                   \
+  "adc  %A[x], r1     \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  "mul  %D[a], %C[b]  \n\t" /* a3b2 @5 */                                                     \
+  "add  %D[r], r0     \n\t"                                                                   \
+  "adc  %A[x], r1     \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  /* al*bh and ah*bl: carries ripple up to byte 7. */                                         \
+  "mul  %A[a], %C[b]  \n\t" /* a0b2 @2 */                                                     \
+  "add  %A[r], r0     \n\t"                                                                   \
+  "adc  %B[r], r1     \n\t"                                                                   \
+  "adc  %C[r], %[z]   \n\t"                                                                   \
+  "adc  %D[r], %[z]   \n\t"                                                                   \
+  "adc  %A[x], %[z]   \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  "mul  %C[a], %A[b]  \n\t" /* a2b0 @2 */                                                     \
+  "add  %A[r], r0     \n\t"                                                                   \
+  "adc  %B[r], r1     \n\t"                                                                   \
+  "adc  %C[r], %[z]   \n\t"                                                                   \
+  "adc  %D[r], %[z]   \n\t"                                                                   \
+  "adc  %A[x], %[z]   \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  "mul  %A[a], %D[b]  \n\t" /* a0b3 @3 */                                                     \
+  "add  %B[r], r0     \n\t"                                                                   \
+  "adc  %C[r], r1     \n\t"                                                                   \
+  "adc  %D[r], %[z]   \n\t"                                                                   \
+  "adc  %A[x], %[z]   \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  "mul  %B[a], %C[b]  \n\t" /* a1b2 @3 */                                                     \
+  "add  %B[r], r0     \n\t"                                                                   \
+  "adc  %C[r], r1     \n\t"                                                                   \
+  "adc  %D[r], %[z]   \n\t"                                                                   \
+  "adc  %A[x], %[z]   \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  "mul  %C[a], %B[b]  \n\t" /* a2b1 @3 */                                                     \
+  "add  %B[r], r0     \n\t"                                                                   \
+  "adc  %C[r], r1     \n\t"                                                                   \
+  "adc  %D[r], %[z]   \n\t"                                                                   \
+  "adc  %A[x], %[z]   \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  "mul  %D[a], %A[b]  \n\t" /* a3b0 @3 */                                                     \
+  "add  %B[r], r0     \n\t"                                                                   \
+  "adc  %C[r], r1     \n\t"                                                                   \
+  "adc  %D[r], %[z]   \n\t"                                                                   \
+  "adc  %A[x], %[z]   \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  "mul  %B[a], %D[b]  \n\t" /* a1b3 @4 */                                                     \
+  "add  %C[r], r0     \n\t"                                                                   \
+  "adc  %D[r], r1     \n\t"                                                                   \
+  "adc  %A[x], %[z]   \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  "mul  %D[a], %B[b]  \n\t" /* a3b1 @4 */                                                     \
+  "add  %C[r], r0     \n\t"                                                                   \
+  "adc  %D[r], r1     \n\t"                                                                   \
+  "adc  %A[x], %[z]   \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"
+#endif
+
+// floor(a * b / 2^16): a 32x16 product keeping the top 32 bits, exact.
+SMA_FIXED_ALWAYS_INLINE uint32_t mul32x16(uint32_t a, uint16_t b) {
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+  uint32_t r;  // bytes 2..5 of the 48-bit product
+  uint8_t p1;  // byte 1, for its carries
+  uint8_t zero;
+  __asm__(
+      "clr  %[z]          \n\t"
+      "mul  %A[a], %A[b]  \n\t"  // a0b0 @0
+      "mov  %[p1], r1     \n\t"
+      "mul  %B[a], %B[b]  \n\t"  // a1b1 @2
+      "movw %A[r], r0     \n\t"
+      "mul  %D[a], %B[b]  \n\t"  // a3b1 @4
+      "movw %C[r], r0     \n\t"
+      // bytes 0-3 hold al*b < 2^32: nothing carries out of byte 3
+      "mul  %A[a], %B[b]  \n\t"  // a0b1 @1
+      "add  %[p1], r0     \n\t"
+      "adc  %A[r], r1     \n\t"
+      "adc  %B[r], %[z]   \n\t"
+      "mul  %B[a], %A[b]  \n\t"  // a1b0 @1
+      "add  %[p1], r0     \n\t"
+      "adc  %A[r], r1     \n\t"
+      "adc  %B[r], %[z]   \n\t"
+      "mul  %C[a], %A[b]  \n\t"  // a2b0 @2
+      "add  %A[r], r0     \n\t"
+      "adc  %B[r], r1     \n\t"
+      "adc  %C[r], %[z]   \n\t"
+      "adc  %D[r], %[z]   \n\t"
+      "mul  %C[a], %B[b]  \n\t"  // a2b1 @3
+      "add  %B[r], r0     \n\t"
+      "adc  %C[r], r1     \n\t"
+      "adc  %D[r], %[z]   \n\t"
+      "mul  %D[a], %A[b]  \n\t"  // a3b0 @3
+      "add  %B[r], r0     \n\t"
+      "adc  %C[r], r1     \n\t"
+      "adc  %D[r], %[z]   \n\t"
+      "clr  r1            \n\t"  // restore __zero_reg__
+      : [r] "=&r"(r), [p1] "=&r"(p1), [z] "=&r"(zero)
+      : [a] "r"(a), [b] "r"(b)
+      : "r0");
+  return r;
+#else
+  return mul32x16_portable(a, b);
+#endif
+}
+
+// floor(a * b / 2^32), exact.
+inline uint32_t mulhi32_portable(uint32_t a, uint32_t b) {
+  uint32_t hi;
+  uint32_t lo;
+  umul32_wide_portable(a, b, hi, lo);
+  return hi;
+}
+
+SMA_FIXED_ALWAYS_INLINE uint32_t mulhi32(uint32_t a, uint32_t b) {
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+  uint32_t r;  // product bytes 2..5
+  uint16_t x;  // product bytes 6..7
+  uint8_t p1;
+  uint8_t zero;
+  __asm__("clr  %[z]          \n\t" SMA_FIXED_AVR_PRODUCT_GRID "clr  r1            \n\t"
+          : [r] "=&r"(r), [x] "=&r"(x), [p1] "=&r"(p1), [z] "=&r"(zero)
+          : [a] "r"(a), [b] "r"(b)
+          : "r0");
+  return (static_cast<uint32_t>(x) << 16) | hi16(r);
+#else
+  return mulhi32_portable(a, b);
+#endif
 }
 
 // |x| as unsigned; |INT32_MIN| = 2^31 is representable.
@@ -70,10 +276,8 @@ constexpr uint32_t magnitude(int32_t x) {
 // Applies a sign to a magnitude and saturates: m <= 2^31 - 1 when positive, m <= 2^31 when
 // negative (INT32_MIN).
 inline int32_t signed_saturated(uint32_t m, bool negative) {
-  if (negative) {
-    return m >= kHalfQ32 ? kRawMin : -static_cast<int32_t>(m);
-  }
-  return m > static_cast<uint32_t>(kRawMax) ? kRawMax : static_cast<int32_t>(m);
+  if (negative) return m >= kHalfQ32 ? kRawMin : as_signed(UINT32_C(0) - m);
+  return m >= kHalfQ32 ? kRawMax : as_signed(m);
 }
 
 // ---- conversions (constexpr so that `T(0.5)` in a template costs nothing at run time) --------
@@ -89,71 +293,164 @@ constexpr int32_t raw_from_double(double x) { return raw_from_scaled(x * 65536.0
 
 // Integers: saturate outside [-32768, 32767], then scale (multiply, not <<: shifting a negative
 // value left is undefined in C++14).
-constexpr int32_t raw_from_int32(int32_t v) {
-  return v > INT32_C(32767) ? kRawMax : v < INT32_C(-32768) ? kRawMin : v * kRawOne;
-}
 constexpr int32_t raw_from_long(long v) {
-  return v > 32767L ? kRawMax : v < -32768L ? kRawMin : raw_from_int32(static_cast<int32_t>(v));
+  return v > 32767L ? kRawMax : v < -32768L ? kRawMin : static_cast<int32_t>(v) * kRawOne;
 }
 constexpr int32_t raw_from_ulong(unsigned long v) {
-  return v > 32767UL ? kRawMax : raw_from_int32(static_cast<int32_t>(v));
+  return v > 32767UL ? kRawMax : static_cast<int32_t>(v) * kRawOne;
 }
 
 // ---- saturating arithmetic on raw values -----------------------------------------------------
 inline int32_t add_raw(int32_t a, int32_t b) {
-  int32_t s;
-  // Overflow is only possible when a and b have the same sign, which is then the sign of the
-  // true result.
-  return __builtin_add_overflow(a, b, &s) ? saturated(a < 0) : s;
+  const uint32_t s = static_cast<uint32_t>(a) + static_cast<uint32_t>(b);
+  // Overflow iff a and b share a sign that s does not; the true result has that sign.
+  const uint32_t flips = (static_cast<uint32_t>(a) ^ s) & (static_cast<uint32_t>(b) ^ s);
+  return (flips & kHalfQ32) != 0 ? saturated(a < 0) : as_signed(s);
 }
 
 inline int32_t sub_raw(int32_t a, int32_t b) {
-  int32_t s;
-  // Overflow only when a and b have opposite signs; the true result has the sign of a.
-  return __builtin_sub_overflow(a, b, &s) ? saturated(a < 0) : s;
+  const uint32_t d = static_cast<uint32_t>(a) - static_cast<uint32_t>(b);
+  // Overflow iff a and b differ in sign and d does not have the sign of a.
+  const uint32_t flips = (static_cast<uint32_t>(a) ^ static_cast<uint32_t>(b)) &
+                         (static_cast<uint32_t>(a) ^ d);
+  return (flips & kHalfQ32) != 0 ? saturated(a < 0) : as_signed(d);
 }
 
-// Q16.16 product without a 64-bit intermediate. On magnitudes split into 16-bit halves,
-//   |a||b| / 2^16 = (ah*bh << 16) + ah*bl + al*bh + (al*bl >> 16),
-// four 16x16->32 products (the AVR's cheapest wide multiply) instead of one 32x32->64 (which
-// libgcc builds from sixteen 8x8 products plus 64-bit shifts). Working on magnitudes keeps every
-// partial product unsigned, makes overflow a simple carry/limit test, and gives sign-symmetric
-// rounding (half away from zero).
+// Q16.16 product without a 64-bit integer type: the magnitudes' 64-bit product comes from the
+// four 16x16->32 partial products (umul32_wide_portable), the result is its bits 16..47 rounded
+// on bit 15. Working on magnitudes keeps every partial product unsigned, makes overflow a test on
+// the top bits, and gives sign-symmetric rounding (half away from zero). Portable version; on
+// the AVR it is the reference the benchmark checks the assembly version against.
+inline int32_t mul_raw_portable(int32_t a, int32_t b) {
+  const bool negative = (a ^ b) < 0;
+  uint32_t hi;
+  uint32_t lo;
+  umul32_wide_portable(magnitude(a), magnitude(b), hi, lo);
+  if (hi16(hi) != 0) return saturated(negative);  // |product| >= 2^32 in Q16.16 units
+  uint32_t m = (hi << 16) | hi16(lo);
+  if ((lo & 0x8000u) != 0) {  // round half up on the magnitude
+    ++m;
+    if (m == 0) return saturated(negative);
+  }
+  return signed_saturated(m, negative);
+}
+
+// The same algorithm on the AVR, where it matters (see SMA_FIXED_AVR_PRODUCT_GRID): magnitudes,
+// the byte grid of the product, rounding and saturation in one block, with the sign kept in the
+// T flag. ~195 cycles including the call (float: ~130; the int64 version: ~250).
 inline int32_t mul_raw(int32_t a, int32_t b) {
-  const bool negative = (a < 0) != (b < 0);
-  const uint32_t ua = magnitude(a);
-  const uint32_t ub = magnitude(b);
-  const uint16_t ah = hi16(ua), al = lo16(ua), bh = hi16(ub), bl = lo16(ub);
-
-  const uint32_t hh = mul16(ah, bh);
-  if (hh >= 0x8000u) return saturated(negative);  // |product| >= 2^15 already
-  // hh << 16 <= 0x7FFF0000 and the rounded lo term <= 0xFFFF: this sum cannot carry.
-  // al*bl <= 0xFFFE0001, so adding the rounding half cannot carry either.
-  uint32_t acc = (hh << 16) + ((mul16(al, bl) + 0x8000u) >> 16);
-  const uint32_t mid1 = mul16(ah, bl);
-  const uint32_t mid2 = mul16(al, bh);
-  acc += mid1;
-  if (acc < mid1) return saturated(negative);  // carry out of 32 bits
-  acc += mid2;
-  if (acc < mid2) return saturated(negative);
-  return signed_saturated(acc, negative);
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+  uint32_t ua = static_cast<uint32_t>(a);  // made |a| in place
+  uint32_t ub = static_cast<uint32_t>(b);
+  uint32_t r;      // product bytes 2..5: the result
+  uint16_t x;      // product bytes 6..7: must end up zero
+  uint8_t p1;      // product byte 1 (its top bit rounds); also a scratch byte
+  uint8_t zero;
+  __asm__(
+      // T = sign of the result; z = 0; p1 = 0xFF for the negations.
+      "mov  %[p1], %D[a]  \n\t"
+      "eor  %[p1], %D[b]  \n\t"
+      "bst  %[p1], 7      \n\t"
+      "clr  %[z]          \n\t"
+      "mov  %[p1], %[z]   \n\t"
+      "dec  %[p1]         \n\t"
+      // |a|, |b| (two's complement: com the upper bytes, neg the lowest, propagate the +1).
+      "sbrs %D[a], 7      \n\t"
+      "rjmp 1f            \n\t"
+      "com  %D[a]         \n\t"
+      "com  %C[a]         \n\t"
+      "com  %B[a]         \n\t"
+      "neg  %A[a]         \n\t"
+      "sbc  %B[a], %[p1]  \n\t"
+      "sbc  %C[a], %[p1]  \n\t"
+      "sbc  %D[a], %[p1]  \n\t"
+      "1:                 \n\t"
+      "sbrs %D[b], 7      \n\t"
+      "rjmp 2f            \n\t"
+      "com  %D[b]         \n\t"
+      "com  %C[b]         \n\t"
+      "com  %B[b]         \n\t"
+      "neg  %A[b]         \n\t"
+      "sbc  %B[b], %[p1]  \n\t"
+      "sbc  %C[b], %[p1]  \n\t"
+      "sbc  %D[b], %[p1]  \n\t"
+      "2:                 \n\t"
+      SMA_FIXED_AVR_PRODUCT_GRID
+      "clr  r1            \n\t"  // restore __zero_reg__
+      // Round on bit 15 (top bit of byte 1); a carry out of byte 5 shows up in x.
+      "lsl  %[p1]         \n\t"
+      "adc  %A[r], %[z]   \n\t"
+      "adc  %B[r], %[z]   \n\t"
+      "adc  %C[r], %[z]   \n\t"
+      "adc  %D[r], %[z]   \n\t"
+      "adc  %A[x], %[z]   \n\t"
+      "adc  %B[x], %[z]   \n\t"
+      // Range: the magnitude must be < 2^31 (positive) or <= 2^31 (negative).
+      "or   %A[x], %B[x]  \n\t"
+      "brne 5f            \n\t"
+      "brts 3f            \n\t"
+      "sbrs %D[r], 7      \n\t"
+      "rjmp 9f            \n\t"  // positive and in range: done
+      "rjmp 5f            \n\t"
+      "3:                 \n\t"  // negative: r = -m
+      "mov  %[p1], %[z]   \n\t"
+      "dec  %[p1]         \n\t"
+      "com  %D[r]         \n\t"
+      "com  %C[r]         \n\t"
+      "com  %B[r]         \n\t"
+      "neg  %A[r]         \n\t"
+      "sbc  %B[r], %[p1]  \n\t"
+      "sbc  %C[r], %[p1]  \n\t"
+      "sbc  %D[r], %[p1]  \n\t"
+      "sbrc %D[r], 7      \n\t"  // -m < 0 for 0 < m <= 2^31: done
+      "rjmp 9f            \n\t"
+      "mov  %[p1], %A[r]  \n\t"  // otherwise m == 0 (fine) or m > 2^31 (saturate)
+      "or   %[p1], %B[r]  \n\t"
+      "or   %[p1], %C[r]  \n\t"
+      "or   %[p1], %D[r]  \n\t"
+      "breq 9f            \n\t"
+      "5:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
+      "clr  %A[r]         \n\t"
+      "clr  %B[r]         \n\t"
+      "clr  %C[r]         \n\t"
+      "clr  %D[r]         \n\t"
+      "bld  %D[r], 7      \n\t"
+      "brts 9f            \n\t"
+      "dec  %A[r]         \n\t"
+      "dec  %B[r]         \n\t"
+      "dec  %C[r]         \n\t"
+      "dec  %D[r]         \n\t"
+      "lsr  %D[r]         \n\t"
+      "9:                 \n\t"
+      : [r] "=&r"(r), [x] "=&r"(x), [p1] "=&r"(p1), [z] "=&r"(zero), [a] "+r"(ua), [b] "+r"(ub)
+      :
+      : "r0");
+  return as_signed(r);
+#else
+  return mul_raw_portable(a, b);
+#endif
 }
 
-// Q16.16 quotient (a << 16) / b without a 64-bit dividend: one 32-bit division for the integer
-// part, then 17 steps of restoring long division for 16 fraction bits plus a rounding bit.
-// Slower than the multiply (the model precomputes reciprocals, so division is rare) but exact.
-// Division by zero saturates: +max for a >= 0, lowest for a < 0.
+// Q16.16 quotient (a << 16) / b without a 64-bit dividend: restoring long division of
+// |a| * 2^17 (49 bits) by |b|, one quotient bit per step, 16 fraction bits plus a rounding bit.
+// The top 17 dividend bits go straight into the remainder (they must be < |b|, else the quotient
+// overflows), so only 32 steps remain and the quotient fits 32 bits. Slower than the multiply
+// (the model precomputes reciprocals, so division is rare) but exact.
+// Division by zero saturates: max() for a >= 0, lowest() for a < 0.
 inline int32_t div_raw(int32_t a, int32_t b) {
   if (b == 0) return saturated(a < 0);
-  const bool negative = (a < 0) != (b < 0);
+  const bool negative = (a ^ b) < 0;
   const uint32_t ua = magnitude(a);
   const uint32_t ub = magnitude(b);
-  uint32_t q = ua / ub;
-  uint32_t r = ua % ub;  // same libgcc call as the quotient (__udivmodsi4 returns both)
-  if (q >= 0x8000u) return saturated(negative);  // |quotient| >= 2^15
-  // r < ub <= 2^31, so r << 1 never overflows; q < 2^15 leaves room for 17 more bits.
-  for (uint8_t i = 0; i < 17; ++i) {
+  uint32_t r = (static_cast<uint32_t>(hi16(ua)) << 1) | (lo16(ua) >> 15);  // ua >> 15
+  if (r >= ub) return saturated(negative);  // |quotient| >= 2^15
+  uint32_t q = static_cast<uint32_t>(lo16(ua)) << 17;  // remaining dividend bits, then quotient
+  // r < ub <= 2^31, so 2 r + 1 never overflows; the quotient bits shift in as the dividend's
+  // bits shift out of q.
+  for (uint8_t i = 0; i < 32; ++i) {
+    const bool top = (q & kHalfQ32) != 0;
     r <<= 1;
+    if (top) r |= 1u;
     q <<= 1;
     if (r >= ub) {
       r -= ub;
@@ -174,14 +471,18 @@ class Fixed {
   constexpr Fixed() : raw_(0) {}
   // Rounds to nearest, saturates out of range, maps NaN to 0. On the AVR `double` is a 32-bit
   // float, so values beyond +-256 carry the float's own rounding; constants fold at compile time.
-  constexpr explicit Fixed(double x) : raw_(fixed_detail::raw_from_double(x)) {}
+  SMA_FIXED_ALWAYS_INLINE constexpr explicit Fixed(double x)
+      : raw_(fixed_detail::raw_from_double(x)) {}
   // Integers saturate outside [-32768, 32767]. The extra integer overloads keep `Fixed(n)`
   // unambiguous for int32_t (long on AVR), uint16_t (unsigned on AVR) and size_t.
-  constexpr explicit Fixed(int v) : raw_(fixed_detail::raw_from_long(static_cast<long>(v))) {}
-  constexpr explicit Fixed(long v) : raw_(fixed_detail::raw_from_long(v)) {}
-  constexpr explicit Fixed(unsigned v)
+  SMA_FIXED_ALWAYS_INLINE constexpr explicit Fixed(int v)
+      : raw_(fixed_detail::raw_from_long(static_cast<long>(v))) {}
+  SMA_FIXED_ALWAYS_INLINE constexpr explicit Fixed(long v)
+      : raw_(fixed_detail::raw_from_long(v)) {}
+  SMA_FIXED_ALWAYS_INLINE constexpr explicit Fixed(unsigned v)
       : raw_(fixed_detail::raw_from_ulong(static_cast<unsigned long>(v))) {}
-  constexpr explicit Fixed(unsigned long v) : raw_(fixed_detail::raw_from_ulong(v)) {}
+  SMA_FIXED_ALWAYS_INLINE constexpr explicit Fixed(unsigned long v)
+      : raw_(fixed_detail::raw_from_ulong(v)) {}
 
   static constexpr Fixed from_raw(int32_t r) { return Fixed(RawTag(), r); }
   constexpr int32_t raw() const { return raw_; }
@@ -247,23 +548,24 @@ inline Fixed from_double<Fixed>(double x) {
 constexpr bool is_finite(Fixed) { return true; }
 
 // ---- math kernels (integer-only; formats noted as Qm.n) -----------------------------------------
+// Shift amounts are kept to 16 (a byte move on the AVR) or to 1-3 bits: avr-gcc -Os compiles
+// other 32-bit shifts into a bit-per-iteration loop of ~5 cycles per bit.
 namespace fixed_detail {
 
 // Haversine kernel: h = (1 - cos(pi x)) / 2 for x in [0, 0.5], given w = (2x)^2 in Q0.30
 // (w30 <= 2^30). h = w * B(w) with B a degree-2 minimax fit on w in [0, 1]
 // (|error of h| <= 3.9e-6). The small inner term is evaluated on 16 bits, the last two products
-// use all of w30, so rounding adds ~1e-8 and h is non-decreasing in w. Returns h in Q0.30.
+// use all of w30, so rounding adds ~3e-6 and h is non-decreasing in w. Returns h in Q0.30.
 inline uint32_t haversine_q30(uint32_t w30) {
   // B(w) = b0 - w (b1 - w b2), b0 = 0.61677086209, b1 = 0.12634892434, b2 = 0.00958198370.
   constexpr uint32_t kB0 = UINT32_C(2649010682);  // b0 in Q0.32
   constexpr uint16_t kB1 = 33122;                 // b1 in Q0.18
-  constexpr uint16_t kB2 = 40190;                 // b2 in Q0.22
-  const uint16_t w15 = static_cast<uint16_t>(w30 >> 15);                       // Q1.15
-  // Q15*Q22 >> 19 = Q18, rounded (truncating here would bias h by up to 3.8e-6).
-  const uint16_t q18 =
-      static_cast<uint16_t>(kB1 - ((mul16(w15, kB2) + (UINT32_C(1) << 18)) >> 19));
-  const uint32_t b32 = kB0 - mul32x16(w30, q18);                               // Q30*Q18 >> 16
-  const uint32_t h = mulhi32(w30, b32);                                        // Q30*Q32 >> 32
+  constexpr uint16_t kB2 = 10047;                 // b2 in Q0.20
+  const uint16_t w14 = hi16(w30);                 // Q2.14, enough for the small term
+  // Q14 * Q20 >> 16 = Q18, rounded (truncating here would bias h by up to 3.8e-6).
+  const uint16_t q18 = static_cast<uint16_t>(kB1 - hi16(mul16(w14, kB2) + 0x8000u));
+  const uint32_t b32 = kB0 - mul32x16(w30, q18);  // Q30 * Q18 >> 16 = Q32
+  const uint32_t h = mulhi32(w30, b32);           // Q30 * Q32 >> 32 = Q30
   constexpr uint32_t kHalf = UINT32_C(1) << 29;
   return h < kHalf ? h : kHalf;  // h <= 0.5 keeps the mirrored upper half monotone
 }
@@ -273,11 +575,13 @@ inline uint32_t haversine_q30(uint32_t w30) {
 inline int32_t cos_turns_raw(uint32_t p) {
   if (p > kHalfQ32) p = UINT32_C(0) - p;      // cos(-t) = cos(t): p in [0, 1/2] turn
   const bool upper = p > (UINT32_C(1) << 30);  // past a quarter turn: cos(pi - a) = -cos(a)
-  const uint32_t x31 = upper ? kHalfQ32 - p : p;         // x = p*2 in Q0.31, x31 <= 2^30
-  const uint32_t x32 = x31 << 1;                          // Q0.32, <= 2^31
+  const uint32_t x32 = (upper ? kHalfQ32 - p : p) << 1;  // x in Q0.32, <= 0.5
   const uint32_t w30 = mulhi32(x32, x32);                 // x^2 in Q0.32 = (2x)^2 in Q0.30
-  const uint32_t c30 = (UINT32_C(1) << 30) - 2u * haversine_q30(w30);  // cos(pi x), Q0.30
-  const int32_t c = static_cast<int32_t>((c30 + (UINT32_C(1) << 13)) >> 14);
+  // 2h in Q16.16, rounded: h32 / 2^15 with h32 = h in Q0.32 <= 2^31, without a 15-bit shift.
+  const uint32_t t = (haversine_q30(w30) << 2) + (UINT32_C(1) << 14);
+  const int32_t two_h =
+      static_cast<int32_t>(2u * static_cast<uint32_t>(hi16(t)) + (lo16(t) >> 15));
+  const int32_t c = kRawOne - two_h;
   return upper ? -c : c;
 }
 
@@ -291,37 +595,90 @@ inline uint32_t turns_q32(uint32_t m) {
   constexpr uint16_t kh = hi16(kTurnsPerRad), kl = lo16(kTurnsPerRad);
   const uint16_t mh = hi16(m), ml = lo16(m);
   return (mul16(mh, kh) << 16) + mul16(mh, kl) + mul16(ml, kh) +
-         ((mul16(ml, kl) + 0x8000u) >> 16) + (mul16(mh, kTurnsPerRadFrac) >> 16);
+         hi16(mul16(ml, kl) + 0x8000u) + hi16(mul16(mh, kTurnsPerRadFrac));
 }
 
-// Digit-by-digit square root, rounded to nearest: returns round(sqrt(src * 4^(pairs - 16))),
-// i.e. pairs = 16 gives sqrt of a 32-bit integer, pairs = 24 appends 16 zero bits (Q16.16 sqrt).
-// One result bit per iteration, shifts and subtractions only; the remainder stays < 2^26.
-inline uint32_t sqrt_rounded(uint32_t src, uint8_t pairs) {
-  if (src == 0) return 0;
-  // Skip leading zero bit pairs a byte at a time: they only cost iterations.
-  if ((src >> 16) == 0) {
-    src <<= 16;
-    pairs = static_cast<uint8_t>(pairs - 8);
+// sqrt(i / 32) - 1/2 in Q0.16 for i = 8..32: the seed table of isqrt32 (50 bytes). A static local
+// of an inline function, so every translation unit shares one copy. On the AVR it is kept in
+// flash and read with LPM: a plain const array would be copied into the 2 KB of RAM at start-up.
+#define SMA_FIXED_SQRT_SEED                                                                    \
+  {                                                                                            \
+    0, 1988, 3868, 5656, 7364, 9003, 10580, 12101, 13573, 14999, 16384, 17731, 19043, 20322,   \
+        21572, 22793, 23988, 25158, 26305, 27431, 28535, 29620, 30687, 31736, 32768            \
   }
-  if ((src >> 24) == 0) {
-    src <<= 8;
-    pairs = static_cast<uint8_t>(pairs - 4);
+inline uint16_t sqrt_seed(uint8_t i) {
+#if defined(__AVR__)
+  static const uint16_t kSeed[25] __attribute__((__progmem__)) = SMA_FIXED_SQRT_SEED;
+  const uint16_t* p = &kSeed[i];
+  uint16_t v;
+  __asm__("lpm  %A0, Z+  \n\t"
+          "lpm  %B0, Z   \n\t"
+          : "=r"(v), "+z"(p));
+  return v;
+#else
+  static constexpr uint16_t kSeed[25] = SMA_FIXED_SQRT_SEED;
+  return kSeed[i];
+#endif
+}
+#undef SMA_FIXED_SQRT_SEED
+
+// floor(sqrt(n)) for any uint32 n, exactly, and the remainder n - root^2.
+// The digit-by-digit method costs ~650 cycles on the AVR for 16 result bits; instead:
+// normalise n to m in [1/4, 1) by an even shift, seed sqrt(m) from a 25-entry table with linear
+// interpolation (error <= 2.4e-4), take one Newton step s += (m - s^2) / (2 s) using the
+// segment slope as 1/(2 s) (error ~1e-5, i.e. within one unit after scaling back), and finish
+// with an exact integer fix-up against root^2, so the result is the true floor and therefore
+// monotone in n.
+inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
+  rem = n;
+  if (n == 0) return 0;
+  uint32_t m = n;
+  uint8_t k = 0;  // n = m / 4^k
+  if (m < (UINT32_C(1) << 16)) {
+    m <<= 16;
+    k = 8;
   }
-  uint32_t root = 0;
-  uint32_t rem = 0;
-  for (; pairs != 0; --pairs) {
-    rem = (rem << 2) | static_cast<uint8_t>(static_cast<uint8_t>(src >> 24) >> 6);
-    src <<= 2;
-    root <<= 1;
-    const uint32_t trial = (root << 1) | 1u;  // (2 root + 1): the next odd number to subtract
-    if (rem >= trial) {
-      rem -= trial;
-      root |= 1u;
-    }
+  if (m < (UINT32_C(1) << 24)) {
+    m <<= 8;
+    k = static_cast<uint8_t>(k + 4);
   }
-  // (root + 1/2)^2 < n  <=>  n - root^2 > root  (integers)
-  return rem > root ? root + 1u : root;
+  if (m < (UINT32_C(1) << 28)) {
+    m <<= 4;
+    k = static_cast<uint8_t>(k + 2);
+  }
+  if (m < (UINT32_C(1) << 30)) {
+    m <<= 2;
+    k = static_cast<uint8_t>(k + 1);
+  }
+  const uint16_t m16 = hi16(m);                               // [2^14, 2^16): m in Q0.16
+  const uint8_t i = static_cast<uint8_t>((m16 >> 11) - 8u);  // segment 0..23, width 1/32
+  const uint16_t frac = static_cast<uint16_t>(m16 << 5);     // position in it, Q0.16
+  const uint16_t t0 = sqrt_seed(i);
+  const uint16_t slope = static_cast<uint16_t>(sqrt_seed(static_cast<uint8_t>(i + 1)) - t0);
+  // sqrt(m) in Q0.16; < 2^16 because the interpolation stays below the next table entry.
+  uint16_t s = static_cast<uint16_t>(32768u + t0 + hi16(mul16(slope, frac)));
+  // Newton: ds = (m - s^2) / (2 s) with 1/(2 s) ~ slope * 32 / 2^16, i.e. ds = e * slope / 2^27.
+  // |e| < 2^21 (Q0.32), so e >> 8 fits 16 bits and loses < 0.01 unit of ds.
+  const uint32_t s2 = mul16(s, s);
+  if (m >= s2) {
+    const uint16_t ds = hi16(mul16(hi16((m - s2) << 8), slope)) >> 3;
+    s = ds > 0xFFFFu - s ? 0xFFFFu : static_cast<uint16_t>(s + ds);  // sqrt(m) < 1
+  } else {
+    s = static_cast<uint16_t>(s - (hi16(mul16(hi16((s2 - m) << 8), slope)) >> 3));
+  }
+  uint16_t root = static_cast<uint16_t>(s >> k);  // sqrt(n) = sqrt(m) * 2^16 / 2^k
+  // Exact fix-up: the estimate is within a unit or two; move it to the true floor.
+  uint32_t sq = mul16(root, root);
+  while (sq > n) {
+    --root;
+    sq -= 2u * static_cast<uint32_t>(root) + 1u;
+  }
+  while (n - sq > 2u * static_cast<uint32_t>(root)) {  // (root + 1)^2 <= n
+    sq += 2u * static_cast<uint32_t>(root) + 1u;
+    ++root;
+  }
+  rem = n - sq;
+  return root;
 }
 
 // Inverse-ramp kernel: g = acos(1 - 2y) / pi = (2/pi) asin(sqrt(y)) for y in [0, 0.5], y in Q0.32
@@ -335,13 +692,16 @@ inline uint32_t ramp_inv_q32(uint32_t y32) {
   constexpr uint16_t kR1 = 27685;                 // r1 in Q0.18
   constexpr uint16_t kR2 = 28380;                 // r2 in Q0.19
   constexpr uint16_t kR4 = 34742;                 // r4 in Q0.19
-  const uint16_t s16 = static_cast<uint16_t>(sqrt_rounded(y32, 16));  // sqrt(y), Q0.16
-  const uint16_t y16 = hi16(y32);                                      // Q0.16, <= 0.5
-  const uint16_t yy16 = hi16(mul16(y16, y16));                         // y^2, Q0.16
-  const uint16_t t19 = static_cast<uint16_t>(kR2 + hi16(mul16(yy16, kR4)));          // Q0.19
-  const uint16_t t18 = static_cast<uint16_t>(kR1 + (mul16(y16, t19) >> 17));         // Q0.18
-  const uint32_t r32 = kR0 + (mul16(y16, t18) >> 2);                                 // Q0.32
-  const uint32_t g = mul32x16(r32, s16);                                             // Q0.32
+  uint32_t rem;
+  const uint16_t root = isqrt32(y32, rem);  // floor(sqrt(y)) in Q0.16
+  // Round to nearest (still monotone); y <= 1/2 keeps the result below 2^16.
+  const uint16_t s16 = static_cast<uint16_t>(root + (rem > root ? 1u : 0u));
+  const uint16_t y16 = hi16(y32);                                            // Q0.16, <= 0.5
+  const uint16_t yy16 = hi16(mul16(y16, y16));                               // y^2, Q0.16
+  const uint16_t t19 = static_cast<uint16_t>(kR2 + hi16(mul16(yy16, kR4)));  // Q0.19
+  const uint16_t t18 = static_cast<uint16_t>(kR1 + (hi16(mul16(y16, t19)) >> 1));  // Q0.18
+  const uint32_t r32 = kR0 + (mul16(y16, t18) >> 2);                               // Q0.32
+  const uint32_t g = mul32x16(r32, s16);                                           // Q0.32
   return g < kHalfQ32 ? g : kHalfQ32;  // g <= 0.5 keeps the mirrored upper half monotone
 }
 
@@ -354,19 +714,19 @@ inline uint32_t exp2_frac_q30(uint16_t f16) {
   constexpr uint16_t kC3 = 29290;                 // 0.05586624560 in Q0.19
   constexpr uint16_t kC4 = 37509;                 // 0.00894282930 in Q0.22
   constexpr uint16_t kC5 = 31817;                 // 0.00189646117 in Q0.24
-  const uint16_t a4 = static_cast<uint16_t>(kC4 + (mul16(f16, kC5) >> 18));  // Q0.22
-  const uint16_t a3 = static_cast<uint16_t>(kC3 + (mul16(f16, a4) >> 19));   // Q0.19
-  const uint16_t a2 = static_cast<uint16_t>(kC2 + (mul16(f16, a3) >> 18));   // Q0.17
-  const uint32_t a1 = kC1 + (mul16(f16, a2) >> 2);                           // Q1.31
-  return kC0 + (mul32x16(a1, f16) >> 1);                                     // Q2.30
+  const uint16_t a4 = static_cast<uint16_t>(kC4 + (hi16(mul16(f16, kC5)) >> 2));  // Q0.22
+  const uint16_t a3 = static_cast<uint16_t>(kC3 + (hi16(mul16(f16, a4)) >> 3));   // Q0.19
+  const uint16_t a2 = static_cast<uint16_t>(kC2 + (hi16(mul16(f16, a3)) >> 2));   // Q0.17
+  const uint32_t a1 = kC1 + (mul16(f16, a2) >> 2);                                // Q1.31
+  return kC0 + (mul32x16(a1, f16) >> 1);                                          // Q2.30
 }
 
 }  // namespace fixed_detail
 
 // ---- math overloads found by ADL ------------------------------------------------------------
 
-// cos(x), |error| <= 5e-5 (see test_fixed.cpp for the measured bound). Any x: the phase is
-// reduced exactly in turns, so large angles only lose what the Q16.16 input already lost.
+// cos(x) for any x, |error| < 2.5e-5 (measured in test_fixed.cpp). The phase is reduced in turns
+// to 2^-32, so large angles lose nothing beyond what their Q16.16 value already lost.
 inline Fixed cos(Fixed x) {
   return Fixed::from_raw(
       fixed_detail::cos_turns_raw(fixed_detail::turns_q32(fixed_detail::magnitude(x.raw()))));
@@ -385,13 +745,13 @@ inline Fixed sin(Fixed x) {
 inline Fixed cos_ramp(Fixed x) {
   using namespace fixed_detail;
   const int32_t r = x.raw();
-  if (r <= 0) return Fixed(0);
-  if (r >= kRawOne) return Fixed(1);
+  if (r <= 0) return Fixed::from_raw(0);
+  if (r >= kRawOne) return Fixed::from_raw(kRawOne);
   const bool upper = r > kRawOne / 2;
   const uint16_t xm = static_cast<uint16_t>(upper ? kRawOne - r : r);  // Q0.16, <= 0.5
   // (2x)^2 in Q0.30 equals x^2 in Q0.32: the product of the Q0.16 raw values, exactly.
-  const uint32_t h30 = haversine_q30(mul16(xm, xm));
-  const int32_t h = static_cast<int32_t>((h30 + (UINT32_C(1) << 13)) >> 14);
+  const uint32_t h32 = haversine_q30(mul16(xm, xm)) << 2;  // Q0.32, <= 2^31
+  const int32_t h = static_cast<int32_t>(hi16(h32 + 0x8000u));
   return Fixed::from_raw(upper ? kRawOne - h : h);
 }
 
@@ -400,12 +760,12 @@ inline Fixed cos_ramp(Fixed x) {
 inline Fixed cos_ramp_inv(Fixed y) {
   using namespace fixed_detail;
   const int32_t r = y.raw();
-  if (r <= 0) return Fixed(0);
-  if (r >= kRawOne) return Fixed(1);
+  if (r <= 0) return Fixed::from_raw(0);
+  if (r >= kRawOne) return Fixed::from_raw(kRawOne);
   const bool upper = r > kRawOne / 2;
   const uint32_t ym = static_cast<uint32_t>(upper ? kRawOne - r : r);  // Q0.16, <= 0.5
   const uint32_t g32 = ramp_inv_q32(ym << 16);
-  const int32_t g = static_cast<int32_t>((g32 + 0x8000u) >> 16);
+  const int32_t g = static_cast<int32_t>(hi16(g32 + 0x8000u));
   return Fixed::from_raw(upper ? kRawOne - g : g);
 }
 
@@ -423,33 +783,62 @@ inline Fixed acos(Fixed x) {
 }
 
 // sqrt(x), rounded to nearest (|error| <= 0.5 LSB); x <= 0 gives 0 (no NaN in fixed point).
+// sqrt(r / 2^16) * 2^16 = sqrt(r * 2^16), a 48-bit radicand: shift r up by as many bit pairs as
+// fit (j <= 8), take the exact 32-bit root, then produce the missing 8 - j bits digit by digit
+// (none for x < 1, one for x < 4, ...).
 inline Fixed sqrt(Fixed x) {
-  if (x.raw() <= 0) return Fixed(0);
-  // sqrt(r / 2^16) * 2^16 = sqrt(r * 2^16): 8 extra digit pairs past the 16 of r.
-  return Fixed::from_raw(
-      static_cast<int32_t>(fixed_detail::sqrt_rounded(static_cast<uint32_t>(x.raw()), 24)));
+  using namespace fixed_detail;
+  if (x.raw() <= 0) return Fixed::from_raw(0);
+  uint32_t n = static_cast<uint32_t>(x.raw());
+  uint8_t pairs_left = 8;
+  if (n < (UINT32_C(1) << 16)) {
+    n <<= 16;
+    pairs_left = 0;
+  } else {
+    while (pairs_left != 0 && n < (UINT32_C(1) << 30)) {
+      n <<= 2;
+      --pairs_left;
+    }
+  }
+  uint32_t rem;
+  uint32_t root = isqrt32(n, rem);
+  // Remaining digits: the radicand continues with zero bits. rem <= 2 root < 2^25, so 4 rem fits.
+  for (; pairs_left != 0; --pairs_left) {
+    rem <<= 2;
+    root <<= 1;
+    const uint32_t trial = (root << 1) | 1u;  // 2 root + 1 (root already doubled)
+    if (rem >= trial) {
+      rem -= trial;
+      root |= 1u;
+    }
+  }
+  if (rem > root) ++root;  // (root + 1/2)^2 < radicand  <=>  rem > root
+  return Fixed::from_raw(static_cast<int32_t>(root));
 }
 
-// exp(x) = 2^(x log2 e) = 2^k * 2^f. Accurate to a few LSB (absolute) for x <= 0, which is what
-// the model uses (exp(-dt / tau)); relative error ~1e-5 above. Saturates for x > ln 32768
-// (about 10.397) and returns 0 below -12 (the result is under half an LSB there).
+// exp(x) = 2^(x log2 e) = 2^k * 2^f. Absolute error ~1 LSB for x <= 0, which is what the model
+// uses (exp(-dt / tau)); relative error < 1e-4 above. Saturates for x > ln 32768 (about 10.397)
+// and returns 0 below -12 (the result is under half an LSB there).
 inline Fixed exp(Fixed x) {
   using namespace fixed_detail;
-  if (x.raw() < -12 * kRawOne) return Fixed(0);
+  if (x.raw() < -12 * kRawOne) return Fixed::from_raw(0);
   if (x.raw() > 11 * kRawOne) return Fixed::max();
   constexpr int32_t kLog2eQ16 = 94548;  // log2(e) in Q16.16
-  const int32_t t = mul_raw(x.raw(), kLog2eQ16);  // |t| < 18, exact in int32
+  const int32_t t = mul_raw(x.raw(), kLog2eQ16);  // |t| < 18
   // k = floor(t) without shifting a negative value: bias t to be non-negative first.
-  const int32_t k = static_cast<int32_t>((static_cast<uint32_t>(t + 32 * kRawOne) >> 16)) - 32;
+  const int32_t k = static_cast<int32_t>(hi16(static_cast<uint32_t>(t + 32 * kRawOne))) - 32;
   const uint32_t p30 = exp2_frac_q30(lo16(static_cast<uint32_t>(t)));  // 2^f, Q2.30
   if (k >= 15) return Fixed::max();
   const int32_t shift = 14 - k;  // Q2.30 * 2^k -> Q16.16
   if (shift <= 0) return Fixed::from_raw(static_cast<int32_t>(p30));
-  if (shift >= 32) return Fixed(0);
+  if (shift >= 32) return Fixed::from_raw(0);
   const uint32_t half = UINT32_C(1) << (shift - 1);
   return Fixed::from_raw(static_cast<int32_t>((p30 + half) >> shift));
 }
 
 }  // namespace sma
+
+#undef SMA_FIXED_AVR_PRODUCT_GRID
+#undef SMA_FIXED_ALWAYS_INLINE
 
 #endif  // SMA_FIXED_HPP

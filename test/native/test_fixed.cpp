@@ -1,0 +1,535 @@
+// sma::Fixed (Q16.16) against exact integer references and against <math.h> in double.
+//
+// Stated bounds (all absolute unless said otherwise; 1 LSB = 2^-16 = 1.53e-5):
+//   conversions, + - * /        exact: equal to the correctly rounded, saturated result
+//                               (* and / round half away from zero), i.e. <= 0.5 LSB
+//   cos, sin                    5e-5      (measured ~2.2e-5)
+//   cos_ramp                    5e-5      (measured ~1.4e-5), exhaustive on [0, 1]
+//   acos                        2e-4 rad  (measured ~3.5e-5), exhaustive on [-1, 1]
+//   cos_ramp_inv                1e-4      (measured ~1.6e-5), exhaustive on [0, 1]
+//   cos_ramp(cos_ramp_inv(y))   5e-5 from y (measured ~3.1e-5)
+//   sqrt                        0.5 LSB of the result (round to nearest), exact integer check
+//   exp on [-20, 0]             2 LSB     (measured ~1 LSB); relative 1e-4 on [0, 10.39]
+// cos_ramp and cos_ramp_inv are also checked to be non-decreasing over every input in [0, 1]
+// (the model relies on it) and mirror-symmetric bit for bit.
+// Each accuracy test prints the measured maximum error ("[ measured ]" lines).
+#include <gtest/gtest.h>
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include <random>
+
+#include "sma/fixed.hpp"
+
+namespace {
+
+using sma::Fixed;
+
+constexpr double kLsb = 1.0 / 65536.0;
+constexpr double kPi = 3.14159265358979323846;
+
+// Bounds, as stated above.
+constexpr double kTrigBound = 5e-5;
+constexpr double kCosRampBound = 5e-5;
+constexpr double kAcosBound = 2e-4;
+constexpr double kCosRampInvBound = 1e-4;
+constexpr double kRoundTripBound = 5e-5;
+constexpr double kSqrtBoundLsb = 0.5;
+constexpr double kExpBoundLsb = 2.0;
+constexpr double kExpRelBound = 1e-4;
+
+double d(Fixed x) { return static_cast<double>(x); }
+Fixed raw(int64_t r) { return Fixed::from_raw(static_cast<int32_t>(r)); }
+
+void report(const char* what, double measured, double bound) {
+  printf("[ measured ] %-28s max error %.3g (bound %.3g)\n", what, measured, bound);
+}
+
+// ---- exact integer references ---------------------------------------------------------------
+int32_t saturate(int64_t v) {
+  return v > INT32_MAX ? INT32_MAX : v < INT32_MIN ? INT32_MIN : static_cast<int32_t>(v);
+}
+// round(n / 2^s) with ties away from zero, for |n| < 2^63.
+int64_t round_shift(int64_t n, int s) {
+  const int64_t half = int64_t{1} << (s - 1);
+  return n >= 0 ? (n + half) >> s : -((-n + half) >> s);
+}
+int32_t ref_mul(int32_t a, int32_t b) {
+  return saturate(round_shift(static_cast<int64_t>(a) * b, 16));
+}
+int32_t ref_div(int32_t a, int32_t b) {
+  if (b == 0) return a < 0 ? INT32_MIN : INT32_MAX;
+  // |a| * 2^17 < 2^49: the quotient with one extra bit, then round half away from zero.
+  const int64_t n = static_cast<int64_t>(a) * 131072;
+  const int64_t q2 = n / b;  // truncated toward zero, one extra bit
+  const int64_t q = q2 >= 0 ? (q2 + 1) / 2 : -((-q2 + 1) / 2);
+  return saturate(q);
+}
+uint64_t isqrt64(uint64_t n) {
+  uint64_t r = static_cast<uint64_t>(sqrtl(static_cast<long double>(n)));
+  while (r * r > n) --r;
+  while ((r + 1) * (r + 1) <= n) ++r;
+  return r;
+}
+
+// Operands spread over all magnitudes and signs (a random right shift of a random word).
+class Operands {
+ public:
+  int32_t next() {
+    const uint32_t w = static_cast<uint32_t>(gen_());
+    const int32_t v = static_cast<int32_t>(w >> (gen_() % 32u));
+    return (gen_() & 1u) != 0 ? -v : v;
+  }
+
+ private:
+  std::mt19937 gen_{12345u};
+};
+
+const int32_t kEdges[] = {0,          1,          -1,         2,         -2,        0x7FFF,
+                          0x8000,     -0x8000,    0xFFFF,     0x10000,   -0x10000,  0x18000,
+                          0x7FFFFFFF, INT32_MIN,  -0x7FFFFFFF, 0x7FFF0000, 181 << 16,
+                          -(182 << 16), 0x00B504F3, 46341,    -46341,    12345678,  -87654321};
+
+}  // namespace
+
+// ---- conversions ------------------------------------------------------------------------------
+
+TEST(FixedConversion, ConstexprConstructionFromDoubleAndInt) {
+  static_assert(Fixed(0.5).raw() == 32768, "Fixed(double) must be constexpr");
+  static_assert(Fixed(-1.25).raw() == -81920, "");
+  static_assert(Fixed(2).raw() == 131072, "Fixed(int) must be constexpr");
+  static_assert(Fixed::from_raw(7).raw() == 7, "");
+  static_assert(Fixed().raw() == 0, "");
+  static_assert(Fixed::max().raw() == INT32_MAX && Fixed::lowest().raw() == INT32_MIN, "");
+  static_assert(Fixed::epsilon().raw() == 1, "");
+}
+
+TEST(FixedConversion, DoubleRoundsToNearestHalfAwayFromZero) {
+  EXPECT_EQ(Fixed(0.5 * kLsb).raw(), 1);
+  EXPECT_EQ(Fixed(-0.5 * kLsb).raw(), -1);
+  EXPECT_EQ(Fixed(0.49 * kLsb).raw(), 0);
+  EXPECT_EQ(Fixed(-0.49 * kLsb).raw(), 0);
+  EXPECT_EQ(Fixed(1.5 * kLsb).raw(), 2);
+  EXPECT_EQ(Fixed(3.0 + 0.75 * kLsb).raw(), 3 * 65536 + 1);
+  std::mt19937 gen(7u);
+  std::uniform_real_distribution<double> u(-32767.0, 32767.0);
+  for (int i = 0; i < 100000; ++i) {
+    const double x = u(gen);
+    ASSERT_EQ(Fixed(x).raw(), llround(x * 65536.0)) << x;
+    ASSERT_LE(fabs(d(Fixed(x)) - x), 0.5 * kLsb);
+  }
+}
+
+TEST(FixedConversion, DoubleSaturatesAndMapsNanToZero) {
+  EXPECT_EQ(Fixed(32768.0), Fixed::max());
+  EXPECT_EQ(Fixed(1e9), Fixed::max());
+  EXPECT_EQ(Fixed(HUGE_VAL), Fixed::max());
+  EXPECT_EQ(Fixed(-32768.0).raw(), INT32_MIN);  // exactly representable
+  EXPECT_EQ(Fixed(-32768.0 - kLsb), Fixed::lowest());
+  EXPECT_EQ(Fixed(-1e9), Fixed::lowest());
+  EXPECT_EQ(Fixed(-HUGE_VAL), Fixed::lowest());
+  EXPECT_EQ(Fixed(NAN).raw(), 0);
+  EXPECT_EQ(Fixed(32767.99999).raw(), INT32_MAX);  // rounds up to 2^31: saturates
+}
+
+TEST(FixedConversion, IntegersScaleAndSaturate) {
+  EXPECT_EQ(Fixed(3).raw(), 3 * 65536);
+  EXPECT_EQ(Fixed(-32768).raw(), INT32_MIN);
+  EXPECT_EQ(Fixed(32767).raw(), 32767 * 65536);
+  EXPECT_EQ(Fixed(32768), Fixed::max());
+  EXPECT_EQ(Fixed(-32769), Fixed::lowest());
+  EXPECT_EQ(Fixed(100000L), Fixed::max());
+  EXPECT_EQ(Fixed(-5L).raw(), -5 * 65536);
+  EXPECT_EQ(Fixed(7u).raw(), 7 * 65536);
+  EXPECT_EQ(Fixed(40000u), Fixed::max());
+  EXPECT_EQ(Fixed(9UL).raw(), 9 * 65536);
+  EXPECT_EQ(Fixed(static_cast<uint16_t>(65535)), Fixed::max());
+  EXPECT_EQ(Fixed(static_cast<int8_t>(-3)).raw(), -3 * 65536);
+}
+
+TEST(FixedConversion, ToDoubleAndFloatAreExactAndRoundTrip) {
+  Operands ops;
+  for (int i = 0; i < 100000; ++i) {
+    const int32_t r = ops.next();
+    const Fixed x = Fixed::from_raw(r);
+    ASSERT_EQ(d(x), r / 65536.0);
+    ASSERT_EQ(Fixed(d(x)).raw(), r);
+    ASSERT_EQ(sma::to_double(x), d(x));
+    ASSERT_EQ(sma::from_double<Fixed>(d(x)).raw(), r);
+    ASSERT_EQ(static_cast<float>(x), static_cast<float>(r) / 65536.0f);
+  }
+}
+
+// ---- arithmetic -------------------------------------------------------------------------------
+
+TEST(FixedArithmetic, AddSubExactWithSaturation) {
+  Operands ops;
+  auto check = [](int32_t a, int32_t b) {
+    const Fixed x = Fixed::from_raw(a), y = Fixed::from_raw(b);
+    ASSERT_EQ((x + y).raw(), saturate(static_cast<int64_t>(a) + b)) << a << " + " << b;
+    ASSERT_EQ((x - y).raw(), saturate(static_cast<int64_t>(a) - b)) << a << " - " << b;
+    Fixed z = x;
+    z += y;
+    ASSERT_EQ(z, x + y);
+    z = x;
+    z -= y;
+    ASSERT_EQ(z, x - y);
+  };
+  for (int32_t a : kEdges) {
+    for (int32_t b : kEdges) check(a, b);
+  }
+  for (int i = 0; i < 200000; ++i) check(ops.next(), ops.next());
+}
+
+TEST(FixedArithmetic, MulIsTheCorrectlyRoundedSaturatedProduct) {
+  // Bound: exactly the reference (round half away from zero), i.e. <= 0.5 LSB from the real
+  // product while it is in range. Checked against long double too (exact for these operands).
+  constexpr double kMulBoundLsb = 0.5;
+  Operands ops;
+  double worst = 0.0;
+  auto check = [&](int32_t a, int32_t b) {
+    const Fixed p = Fixed::from_raw(a) * Fixed::from_raw(b);
+    ASSERT_EQ(p.raw(), ref_mul(a, b)) << a << " * " << b;
+    const long double exact = static_cast<long double>(a) * b / 4294967296.0L;
+    if (fabsl(exact) < 32767.0L) {
+      const double err = static_cast<double>(fabsl(static_cast<long double>(d(p)) - exact));
+      ASSERT_LE(err, kMulBoundLsb * kLsb);
+      if (err > worst) worst = err;
+    }
+    Fixed q = Fixed::from_raw(a);
+    q *= Fixed::from_raw(b);
+    ASSERT_EQ(q, p);
+  };
+  for (int32_t a : kEdges) {
+    for (int32_t b : kEdges) check(a, b);
+  }
+  for (int i = 0; i < 500000; ++i) check(ops.next(), ops.next());
+  std::uniform_int_distribution<int32_t> small(-0x30000, 0x30000);  // |x| < 3: the common case
+  std::mt19937 gen(3u);
+  for (int i = 0; i < 200000; ++i) check(small(gen), small(gen));
+  report("mul vs exact product", worst / kLsb, kMulBoundLsb);
+}
+
+TEST(FixedArithmetic, MulRoundingIsSignSymmetric) {
+  Operands ops;
+  for (int i = 0; i < 100000; ++i) {
+    const int32_t a = ops.next(), b = ops.next();
+    if (a == INT32_MIN || b == INT32_MIN) continue;
+    const int32_t p = (Fixed::from_raw(a) * Fixed::from_raw(b)).raw();
+    const int32_t n = (Fixed::from_raw(-a) * Fixed::from_raw(b)).raw();
+    if (p != INT32_MAX && p != INT32_MIN) {
+      ASSERT_EQ(n, -p) << a << " * " << b;
+    }
+  }
+  // Ties: 0.5 LSB * +-1 -> +-1 LSB (away from zero).
+  EXPECT_EQ((Fixed::from_raw(1) * Fixed(0.5)).raw(), 1);
+  EXPECT_EQ((Fixed::from_raw(-1) * Fixed(0.5)).raw(), -1);
+  EXPECT_EQ((Fixed::from_raw(1) * Fixed(0.49999)).raw(), 0);
+}
+
+TEST(FixedArithmetic, DivIsTheCorrectlyRoundedSaturatedQuotient) {
+  Operands ops;
+  auto check = [](int32_t a, int32_t b) {
+    const Fixed q = Fixed::from_raw(a) / Fixed::from_raw(b);
+    ASSERT_EQ(q.raw(), ref_div(a, b)) << a << " / " << b;
+    Fixed z = Fixed::from_raw(a);
+    z /= Fixed::from_raw(b);
+    ASSERT_EQ(z, q);
+  };
+  for (int32_t a : kEdges) {
+    for (int32_t b : kEdges) check(a, b);
+  }
+  for (int i = 0; i < 300000; ++i) check(ops.next(), ops.next());
+  EXPECT_EQ(Fixed(1) / Fixed(3), Fixed(1.0 / 3.0));
+  EXPECT_EQ(Fixed(-7) / Fixed(2), Fixed(-3.5));
+  EXPECT_EQ(Fixed::from_raw(1) / Fixed(2), Fixed::from_raw(1));    // 0.5 LSB rounds away
+  EXPECT_EQ(Fixed::from_raw(-1) / Fixed(2), Fixed::from_raw(-1));
+}
+
+TEST(FixedArithmetic, DivisionByZeroSaturates) {
+  EXPECT_EQ(Fixed(1) / Fixed(0), Fixed::max());
+  EXPECT_EQ(Fixed(-1) / Fixed(0), Fixed::lowest());
+  EXPECT_EQ(Fixed(0) / Fixed(0), Fixed::max());
+  EXPECT_EQ(Fixed::from_raw(1) / Fixed(0), Fixed::max());
+  EXPECT_EQ(Fixed::lowest() / Fixed(0), Fixed::lowest());
+}
+
+TEST(FixedArithmetic, SaturationInsteadOfWrapAround) {
+  const Fixed eps = Fixed::epsilon();
+  EXPECT_EQ(Fixed::max() + eps, Fixed::max());
+  EXPECT_EQ(Fixed::lowest() - eps, Fixed::lowest());
+  EXPECT_EQ(Fixed::max() - (-Fixed(1)), Fixed::max());
+  EXPECT_EQ(Fixed(20000) + Fixed(20000), Fixed::max());
+  EXPECT_EQ(Fixed(-20000) - Fixed(20000), Fixed::lowest());
+  EXPECT_EQ(Fixed(200) * Fixed(200), Fixed::max());
+  EXPECT_EQ(Fixed(-200) * Fixed(200), Fixed::lowest());
+  EXPECT_EQ(Fixed(-200) * Fixed(-200), Fixed::max());
+  EXPECT_EQ(Fixed::max() * Fixed(2), Fixed::max());
+  EXPECT_EQ(Fixed::lowest() * Fixed(-1), Fixed::max());
+  EXPECT_EQ((Fixed::max() * Fixed(-1)).raw(), -INT32_MAX);
+  EXPECT_EQ((Fixed(-16384) * Fixed(2)).raw(), INT32_MIN);  // exactly -32768: representable
+  EXPECT_EQ(Fixed(30000) / Fixed(0.5), Fixed::max());
+  EXPECT_EQ(Fixed(-30000) / Fixed(0.5), Fixed::lowest());
+  EXPECT_EQ(-Fixed::lowest(), Fixed::max());
+  EXPECT_EQ((-Fixed::max()).raw(), -INT32_MAX);
+  // A heater command can never flip sign by overflowing.
+  for (int i = 1; i < 200; ++i) {
+    EXPECT_GT(Fixed(i) * Fixed(i * 7), Fixed(0));
+    EXPECT_GT(Fixed(30000) + Fixed(i * 100), Fixed(0));
+  }
+}
+
+TEST(FixedArithmetic, UnaryOperatorsAndComparisons) {
+  Operands ops;
+  for (int i = 0; i < 100000; ++i) {
+    const int32_t a = ops.next(), b = ops.next();
+    const Fixed x = Fixed::from_raw(a), y = Fixed::from_raw(b);
+    ASSERT_EQ(x == y, a == b);
+    ASSERT_EQ(x != y, a != b);
+    ASSERT_EQ(x < y, a < b);
+    ASSERT_EQ(x <= y, a <= b);
+    ASSERT_EQ(x > y, a > b);
+    ASSERT_EQ(x >= y, a >= b);
+    ASSERT_EQ((+x).raw(), a);
+    if (a != INT32_MIN) {
+      ASSERT_EQ((-x).raw(), -a);
+    }
+  }
+  EXPECT_TRUE(Fixed(1) == Fixed(1.0));
+  EXPECT_TRUE(Fixed(-1) < Fixed(0));
+}
+
+TEST(FixedArithmetic, WorksWithTheGenericScalarHelpers) {
+  EXPECT_EQ(sma::abs(Fixed(-2.5)), Fixed(2.5));
+  EXPECT_EQ(sma::abs(Fixed(2.5)), Fixed(2.5));
+  EXPECT_EQ(sma::min(Fixed(1), Fixed(2)), Fixed(1));
+  EXPECT_EQ(sma::max(Fixed(1), Fixed(2)), Fixed(2));
+  EXPECT_EQ(sma::clamp(Fixed(3), Fixed(0), Fixed(1)), Fixed(1));
+  EXPECT_EQ(sma::clamp(Fixed(-3), Fixed(0), Fixed(1)), Fixed(0));
+  EXPECT_EQ(sma::clamp(Fixed(0.25), Fixed(0), Fixed(1)), Fixed(0.25));
+  EXPECT_TRUE(sma::is_finite(Fixed::max()));
+  EXPECT_TRUE(sma::is_finite(Fixed::lowest()));
+  EXPECT_TRUE(sma::is_finite(Fixed(1) / Fixed(0)));
+}
+
+// ---- building blocks shared with the AVR paths ------------------------------------------------
+
+// On the host these are the portable versions; bench/avr_math checks the AVR assembly against
+// them, and that the AVR computes the same results hash as the host.
+TEST(FixedKernels, PortableWideProductIsExact) {
+  std::mt19937 gen(11u);
+  for (int i = 0; i < 300000; ++i) {
+    const uint32_t a = static_cast<uint32_t>(gen()) >> (gen() % 32u);
+    const uint32_t b = static_cast<uint32_t>(gen()) >> (gen() % 32u);
+    uint32_t hi, lo;
+    sma::fixed_detail::umul32_wide_portable(a, b, hi, lo);
+    const uint64_t p = static_cast<uint64_t>(a) * b;
+    ASSERT_EQ(hi, static_cast<uint32_t>(p >> 32));
+    ASSERT_EQ(lo, static_cast<uint32_t>(p));
+    ASSERT_EQ(sma::fixed_detail::mul32x16(a, static_cast<uint16_t>(b)),
+              static_cast<uint32_t>((static_cast<uint64_t>(a) * static_cast<uint16_t>(b)) >> 16));
+    ASSERT_EQ(sma::fixed_detail::mulhi32(a, b), static_cast<uint32_t>(p >> 32));
+  }
+  uint32_t hi, lo;
+  sma::fixed_detail::umul32_wide_portable(0xFFFFFFFFu, 0xFFFFFFFFu, hi, lo);
+  EXPECT_EQ(hi, 0xFFFFFFFEu);
+  EXPECT_EQ(lo, 1u);
+}
+
+TEST(FixedKernels, IntegerSquareRootIsTheExactFloor) {
+  auto check = [](uint32_t n) {
+    uint32_t rem;
+    const uint16_t r = sma::fixed_detail::isqrt32(n, rem);
+    const uint64_t e = isqrt64(n);
+    ASSERT_EQ(r, e) << n;
+    ASSERT_EQ(rem, n - e * e) << n;
+  };
+  for (uint32_t n = 0; n < (1u << 20); ++n) check(n);
+  for (uint64_t k = 1; k < 65536; k += 3) {
+    check(static_cast<uint32_t>(k * k - 1));
+    check(static_cast<uint32_t>(k * k));
+    check(static_cast<uint32_t>(k * k + 1));
+  }
+  check(0xFFFFFFFFu);
+  check(0xFFFE0001u);
+  std::mt19937 gen(5u);
+  for (int i = 0; i < 1000000; ++i) check(static_cast<uint32_t>(gen()) >> (gen() % 32u));
+}
+
+// ---- transcendental functions ------------------------------------------------------------------
+
+TEST(FixedMath, CosAndSinOverSeveralTurns) {
+  double ec = 0.0, es = 0.0;
+  for (int64_t r = -50 * 65536; r <= 50 * 65536; r += 3) {
+    const Fixed x = raw(r);
+    const double xv = d(x);
+    ec = fmax(ec, fabs(d(sma::cos(x)) - ::cos(xv)));
+    es = fmax(es, fabs(d(sma::sin(x)) - ::sin(xv)));
+  }
+  EXPECT_LE(ec, kTrigBound);
+  EXPECT_LE(es, kTrigBound);
+  report("cos on [-50, 50]", ec, kTrigBound);
+  report("sin on [-50, 50]", es, kTrigBound);
+  EXPECT_EQ(sma::cos(Fixed(0)), Fixed(1));
+  EXPECT_EQ(sma::sin(Fixed(0)), Fixed(0));
+  EXPECT_EQ(sma::cos(Fixed(kPi)), Fixed(-1));
+}
+
+TEST(FixedMath, CosAndSinOverTheWholeRange) {
+  // The phase is reduced in turns to 2^-32, so large angles keep the same bound.
+  double ec = 0.0, es = 0.0;
+  for (int64_t r = INT32_MIN; r <= INT32_MAX; r += 65521) {
+    const Fixed x = raw(r);
+    const double xv = d(x);
+    ec = fmax(ec, fabs(d(sma::cos(x)) - ::cos(xv)));
+    es = fmax(es, fabs(d(sma::sin(x)) - ::sin(xv)));
+  }
+  EXPECT_LE(ec, kTrigBound);
+  EXPECT_LE(es, kTrigBound);
+  report("cos on the whole range", ec, kTrigBound);
+  report("sin on the whole range", es, kTrigBound);
+}
+
+TEST(FixedMath, CosRampExhaustiveAccuracyMonotonicityAndSymmetry) {
+  double err = 0.0;
+  int32_t prev = -1;
+  for (int32_t r = 0; r <= 65536; ++r) {
+    const Fixed x = Fixed::from_raw(r);
+    const Fixed y = sma::cos_ramp(x);
+    err = fmax(err, fabs(d(y) - 0.5 * (1.0 - ::cos(kPi * d(x)))));
+    ASSERT_GE(y.raw(), prev) << "cos_ramp decreases at x = " << d(x);
+    prev = y.raw();
+    ASSERT_EQ(sma::cos_ramp(Fixed::from_raw(65536 - r)).raw(), 65536 - y.raw()) << r;
+  }
+  EXPECT_LE(err, kCosRampBound);
+  report("cos_ramp on [0, 1]", err, kCosRampBound);
+  EXPECT_EQ(sma::cos_ramp(Fixed(0)), Fixed(0));
+  EXPECT_EQ(sma::cos_ramp(Fixed(0.5)), Fixed(0.5));
+  EXPECT_EQ(sma::cos_ramp(Fixed(1)), Fixed(1));
+  // Clamped outside [0, 1].
+  EXPECT_EQ(sma::cos_ramp(Fixed(-3)), Fixed(0));
+  EXPECT_EQ(sma::cos_ramp(Fixed::lowest()), Fixed(0));
+  EXPECT_EQ(sma::cos_ramp(Fixed(1.0001)), Fixed(1));
+  EXPECT_EQ(sma::cos_ramp(Fixed::max()), Fixed(1));
+}
+
+TEST(FixedMath, CosRampInvExhaustiveAccuracyMonotonicityAndSymmetry) {
+  double err = 0.0;
+  int32_t prev = -1;
+  for (int32_t r = 0; r <= 65536; ++r) {
+    const Fixed y = Fixed::from_raw(r);
+    const Fixed x = sma::cos_ramp_inv(y);
+    err = fmax(err, fabs(d(x) - ::acos(1.0 - 2.0 * d(y)) / kPi));
+    ASSERT_GE(x.raw(), prev) << "cos_ramp_inv decreases at y = " << d(y);
+    prev = x.raw();
+    ASSERT_EQ(sma::cos_ramp_inv(Fixed::from_raw(65536 - r)).raw(), 65536 - x.raw()) << r;
+  }
+  EXPECT_LE(err, kCosRampInvBound);
+  report("cos_ramp_inv on [0, 1]", err, kCosRampInvBound);
+  EXPECT_EQ(sma::cos_ramp_inv(Fixed(0)), Fixed(0));
+  EXPECT_EQ(sma::cos_ramp_inv(Fixed(0.5)), Fixed(0.5));
+  EXPECT_EQ(sma::cos_ramp_inv(Fixed(1)), Fixed(1));
+  EXPECT_EQ(sma::cos_ramp_inv(Fixed(-0.1)), Fixed(0));
+  EXPECT_EQ(sma::cos_ramp_inv(Fixed(7)), Fixed(1));
+}
+
+TEST(FixedMath, CosRampOfCosRampInvGivesBackY) {
+  double err = 0.0;
+  for (int32_t r = 0; r <= 65536; ++r) {
+    const Fixed y = Fixed::from_raw(r);
+    err = fmax(err, fabs(d(sma::cos_ramp(sma::cos_ramp_inv(y))) - d(y)));
+  }
+  EXPECT_LE(err, kRoundTripBound);
+  report("cos_ramp(cos_ramp_inv(y))", err, kRoundTripBound);
+}
+
+TEST(FixedMath, SpecialisedRampsAgreeWithTheGenericTemplates) {
+  // The generic scalar.hpp templates instantiated for Fixed go through cos/acos and two
+  // products; they must agree with the fast overloads within the sum of the bounds.
+  for (int32_t r = 0; r <= 65536; r += 17) {
+    const Fixed x = Fixed::from_raw(r);
+    ASSERT_NEAR(d(sma::cos_ramp<Fixed>(x)), d(sma::cos_ramp(x)), kTrigBound + kCosRampBound);
+    ASSERT_NEAR(d(sma::cos_ramp_inv<Fixed>(x)), d(sma::cos_ramp_inv(x)),
+                kAcosBound / kPi + kCosRampInvBound);
+  }
+}
+
+TEST(FixedMath, AcosExhaustiveOnMinusOneToOne) {
+  double err = 0.0;
+  int32_t prev = INT32_MAX;
+  for (int32_t r = -65536; r <= 65536; ++r) {
+    const Fixed x = Fixed::from_raw(r);
+    const Fixed a = sma::acos(x);
+    err = fmax(err, fabs(d(a) - ::acos(d(x))));
+    ASSERT_LE(a.raw(), prev) << "acos increases at x = " << d(x);
+    prev = a.raw();
+  }
+  EXPECT_LE(err, kAcosBound);
+  report("acos on [-1, 1]", err, kAcosBound);
+  EXPECT_EQ(sma::acos(Fixed(1)), Fixed(0));
+  EXPECT_NEAR(d(sma::acos(Fixed(-1))), kPi, kLsb);
+  EXPECT_NEAR(d(sma::acos(Fixed(0))), kPi / 2, kLsb);
+  // Clamped outside [-1, 1].
+  EXPECT_EQ(sma::acos(Fixed(2)), sma::acos(Fixed(1)));
+  EXPECT_EQ(sma::acos(Fixed(-2)), sma::acos(Fixed(-1)));
+}
+
+TEST(FixedMath, SqrtIsRoundedToNearest) {
+  double worst = 0.0;
+  auto check = [&](int32_t r) {
+    const Fixed s = sma::sqrt(Fixed::from_raw(r));
+    // Exact reference: round(sqrt(r * 2^16)); no ties are possible for an integer radicand.
+    const uint64_t n = static_cast<uint64_t>(r) << 16;
+    uint64_t e = isqrt64(n);
+    if (n - e * e > e) ++e;
+    ASSERT_EQ(static_cast<uint64_t>(s.raw()), e) << r;
+    worst = fmax(worst, fabs(s.raw() - ::sqrt(static_cast<double>(n))));
+  };
+  for (int32_t r = 0; r < (1 << 20); ++r) check(r);
+  Operands ops;
+  for (int i = 0; i < 500000; ++i) {
+    const int32_t r = ops.next();
+    check(r < 0 ? (r == INT32_MIN ? INT32_MAX : -r) : r);
+  }
+  check(INT32_MAX);
+  EXPECT_LE(worst, kSqrtBoundLsb);
+  report("sqrt (in LSB)", worst, kSqrtBoundLsb);
+  EXPECT_EQ(sma::sqrt(Fixed(4)), Fixed(2));
+  EXPECT_EQ(sma::sqrt(Fixed(0.25)), Fixed(0.5));
+  EXPECT_EQ(sma::sqrt(Fixed(0)), Fixed(0));
+  EXPECT_EQ(sma::sqrt(Fixed(-1)), Fixed(0));  // no NaN in fixed point
+  EXPECT_EQ(sma::sqrt(Fixed::lowest()), Fixed(0));
+}
+
+TEST(FixedMath, ExpOnTheModelsRangeAndAbove) {
+  double err = 0.0;
+  for (int32_t r = -20 * 65536; r <= 0; ++r) {
+    const Fixed x = Fixed::from_raw(r);
+    err = fmax(err, fabs(d(sma::exp(x)) - ::exp(d(x))));
+  }
+  EXPECT_LE(err, kExpBoundLsb * kLsb);
+  report("exp on [-20, 0] (in LSB)", err / kLsb, kExpBoundLsb);
+  double rel = 0.0;
+  for (int32_t r = 0; r <= static_cast<int32_t>(10.39 * 65536); r += 3) {
+    const Fixed x = Fixed::from_raw(r);
+    const double e = ::exp(d(x));
+    rel = fmax(rel, fabs(d(sma::exp(x)) - e) / e);
+  }
+  EXPECT_LE(rel, kExpRelBound);
+  report("exp on [0, 10.39] (relative)", rel, kExpRelBound);
+  EXPECT_EQ(sma::exp(Fixed(0)), Fixed(1));
+  EXPECT_EQ(sma::exp(Fixed(10.4)), Fixed::max());
+  EXPECT_EQ(sma::exp(Fixed(30000)), Fixed::max());
+  EXPECT_EQ(sma::exp(Fixed(-12.5)), Fixed(0));
+  EXPECT_EQ(sma::exp(Fixed::lowest()), Fixed(0));
+  // exp(-dt/tau) is a contraction factor: never above 1 for x <= 0, and non-increasing.
+  int32_t prev = INT32_MAX;
+  for (int32_t r = 0; r >= -13 * 65536; r -= 5) {
+    const int32_t e = sma::exp(Fixed::from_raw(r)).raw();
+    ASSERT_LE(e, 65536);
+    ASSERT_LE(e, prev);
+    prev = e;
+  }
+}
