@@ -1,0 +1,722 @@
+// The firmware's serial console as pure functions: no I/O, no heap, no printf, C++14, AVR-ready.
+// One line in -> one reply out, and a change of the console State only when the reply is OK.
+//
+// Commands (one per line, lower case, fields separated by spaces or tabs; numbers are plain
+// decimals such as 0.4, -1, .5, +2.25: no exponent, no inf/nan):
+//
+// | command              | does                                                    | range      |
+// |----------------------|---------------------------------------------------------|------------|
+// | pos <mm>             | hold a constant setpoint, heater on                     | 0..g mm    |
+// | step                 | run the paper's multi-step (0.2..0.8 mm, 25 s steps)    |            |
+// | sine                 | run the paper's sine (0.2..0.7 mm, 50 s, 3 periods)     |            |
+// | traj clear           | forget the trajectory points                            |            |
+// | traj <t_s> <mm>      | add a point (time increasing, at most 16)               | 0..3600 s  |
+// | traj run             | run the trajectory (linear between points, then hold)   |            |
+// | mode open|pid|ff|ffpid | select the controller (live if heating)               |            |
+// | volt <V>             | open-loop voltage; selects mode open, heater on         | 0..2 V     |
+// | gains <kp> <ki> <kd> | PID gains of the selected PID mode (pid or ffpid)       | 0..1000    |
+// | tlim <degC>          | wire temperature limit of the safety latch              | 30..150    |
+// | tele on|off          | telemetry rows t_s,v_V,d_mm,ref_mm,duty at 100 Hz       |            |
+// | status               | one line: mode, reference, measurement, fault           |            |
+// | stop                 | heater off (mode off), clears a latched fault           |            |
+// | help                 | list the commands                                       |            |
+//
+// Replies: `OK <what changed>` or `ERR <problem>`; an ERR changes nothing. While a safety fault
+// is latched, commands that would heat (pos, step, sine, traj run, volt) answer
+// `ERR fault <name>: send stop`. When telemetry starts, the header `t_s,v_V,d_mm,ref_mm,duty` is
+// sent once, then one row per tick, so the captured rows are a rig log (interfaces.md); reply
+// lines start with OK/ERR and comments with '#', which log readers skip or report.
+//
+// Heater off at boot: State::heat is false until pos/step/sine/traj run/volt.
+#ifndef SMA_CONSOLE_HPP
+#define SMA_CONSOLE_HPP
+
+#include <stdint.h>
+#include "controller.hpp"
+#include "pid.hpp"
+#include "reference.hpp"
+#include "safety.hpp"
+#include "scalar.hpp"
+
+namespace sma {
+namespace console {
+
+constexpr uint8_t kLineMax = 47;    // longest accepted line, without the newline
+constexpr uint8_t kReplyMax = 120;  // longest reply, with the terminating 0
+constexpr double kTrajMaxS = 3600.0;
+
+// Default gains (tuned on the simulated plant in rig-like conditions, sine test).
+inline PidGains default_gains(Mode m) {
+  PidGains g;
+  if (m == Mode::Pid) {
+    g.kp = 16.0;
+    g.ki = 1.25;
+    g.kd = 0.08;
+  } else {
+    g.kp = 12.8;
+    g.ki = 4.0;
+    g.kd = 0.09;
+  }
+  g.d_filter_s = 0.05;
+  g.i_zone_mm = 0.05;
+  return g;
+}
+
+// mode_name() as an SMA_F (flash) string.
+inline const char* mode_name_f(Mode m) {
+  switch (m) {
+    case Mode::OpenLoop: return SMA_F("open");
+    case Mode::Pid: return SMA_F("pid");
+    case Mode::Feedforward: return SMA_F("ff");
+    case Mode::FeedforwardPid: return SMA_F("ffpid");
+    default: return SMA_F("off");
+  }
+}
+
+// Limits of the numbers the console accepts.
+struct Limits {
+  double g_mm = 0.958;  // stroke: pos and traj points in 0..g
+  double v_max = 2.0;   // volt in 0..v_max
+};
+
+// What the console controls. The firmware applies it to the controller and the safety latch.
+struct State {
+  Mode mode = Mode::FeedforwardPid;  // selected controller (never Off; `stop` clears heat)
+  bool heat = false;                 // heater allowed: false at boot and after stop or a trip
+  double volt = 0.0;                 // open-loop voltage
+  PidGains gains_pid = default_gains(Mode::Pid);
+  PidGains gains_ffpid = default_gains(Mode::FeedforwardPid);
+  double tlim_C = 110.0;
+  bool tele = false;
+  RefKind run_kind = RefKind::Constant;  // the reference being run (reference())
+  double pos_mm = 0.0;                    // its setpoint if constant
+  Reference traj = trajectory();          // trajectory points (edited by traj, run by traj run)
+  uint16_t run = 0;  // incremented at every (re)start of a reference: restart its clock
+
+  // The reference being run (a trajectory as it was at `traj run`: the firmware copies it into
+  // its generator then, so editing the points does not disturb a running trajectory).
+  Reference reference() const {
+    switch (run_kind) {
+      case RefKind::MultiStep: return Reference::multi_step();
+      case RefKind::Sine: return Reference::sine();
+      case RefKind::Trajectory: return traj;
+      default: return Reference::constant(pos_mm);
+    }
+  }
+
+  // The controller mode to run now.
+  Mode active_mode() const { return heat ? mode : Mode::Off; }
+  // Gains of the selected PID mode (ffpid's for open and ff).
+  const PidGains& gains() const { return mode == Mode::Pid ? gains_pid : gains_ffpid; }
+
+  static Reference trajectory() {
+    Reference r;
+    r.kind = RefKind::Trajectory;
+    return r;
+  }
+};
+
+enum class Op : uint8_t {
+  Empty, Pos, Step, Sine, TrajClear, TrajPoint, TrajRun, SetMode, Volt, Gains, Tlim, Tele,
+  Status, Stop, Help
+};
+
+// A parsed line.
+struct Command {
+  Op op = Op::Empty;
+  double a = 0.0, b = 0.0, c = 0.0;
+  Mode mode = Mode::Off;
+  bool on = false;
+  // Would this command turn the heater on?
+  bool heats() const {
+    return op == Op::Pos || op == Op::Step || op == Op::Sine || op == Op::TrajRun || op == Op::Volt;
+  }
+};
+
+// ---- a small bounded text buffer ---------------------------------------------------------------
+struct Reply {
+  char text[kReplyMax];
+  uint8_t len = 0;
+  Reply() { text[0] = 0; }
+  void clear() {
+    len = 0;
+    text[0] = 0;
+  }
+  void put(char c) {
+    if (len + 1 < kReplyMax) {
+      text[len] = c;
+      len = static_cast<uint8_t>(len + 1);
+      text[len] = 0;
+    }
+  }
+  // Append an SMA_F (flash) string.
+  void put_f(const char* s) {
+    for (char c = flash_char(s); c != 0; c = flash_char(++s)) put(c);
+  }
+  // Append a RAM string (at most n chars); non-printable characters become '?'.
+  void put_s(const char* s, uint8_t n = 255) {
+    for (uint8_t k = 0; k < n && s[k] != 0; ++k) put(s[k] >= 32 && s[k] < 127 ? s[k] : '?');
+  }
+  void put_u(uint32_t v) {
+    char d[10];
+    uint8_t n = 0;
+    while (v > 0xFFFFu && n < 10) {  // 32-bit digits only while needed
+      d[n++] = static_cast<char>('0' + v % 10u);
+      v /= 10u;
+    }
+    uint16_t w = static_cast<uint16_t>(v);
+    do {
+      d[n++] = static_cast<char>('0' + w % 10u);
+      w = static_cast<uint16_t>(w / 10u);
+    } while (w != 0 && n < 10);
+    while (n > 0) put(d[--n]);
+  }
+  // Fixed-point decimal with `dec` decimals (0..6), rounded; "nan"/"inf" for non-finite and
+  // "big" beyond 2e9 units of the last digit (so no printf("%f"), which avr-libc lacks by default).
+  void put_fixed(double x, uint8_t dec) {
+    if (!is_finite(x)) {
+      put_f(x != x ? SMA_F("nan") : SMA_F("inf"));
+      return;
+    }
+    if (dec > 6) dec = 6;
+    uint32_t scale = 1;
+    for (uint8_t k = 0; k < dec; ++k) scale *= 10u;
+    if (x < 0.0) {
+      x = -x;
+      // "-0.0000" would read oddly: only print the sign if something non-zero follows.
+      if (x * static_cast<double>(scale) >= 0.5) put('-');
+    }
+    const double scaled = x * static_cast<double>(scale) + 0.5;
+    if (!(scaled < 2.0e9)) {
+      put_f(SMA_F("big"));
+      return;
+    }
+    const uint32_t v = static_cast<uint32_t>(scaled);
+    const uint32_t ip = v / scale;
+    put_u(ip);
+    if (dec == 0) return;
+    put('.');
+    const uint32_t frac = v - ip * scale;
+    // Digits right to left; 16-bit arithmetic when it fits (a 32-bit division costs ~600 AVR
+    // cycles, a 16-bit one ~200: telemetry formats 4 numbers every tick).
+    char d[6];
+    if (scale <= 10000u) {
+      uint16_t f = static_cast<uint16_t>(frac);
+      for (uint8_t k = dec; k > 0; --k) {
+        d[k - 1] = static_cast<char>('0' + f % 10u);
+        f = static_cast<uint16_t>(f / 10u);
+      }
+    } else {
+      uint32_t f = frac;
+      for (uint8_t k = dec; k > 0; --k) {
+        d[k - 1] = static_cast<char>('0' + f % 10u);
+        f /= 10u;
+      }
+    }
+    for (uint8_t k = 0; k < dec; ++k) put(d[k]);
+  }
+};
+
+// ---- telemetry ---------------------------------------------------------------------------------
+inline const char* telemetry_header() { return SMA_F("t_s,v_V,d_mm,ref_mm,duty"); }
+
+// One row `t_s,v_V,d_mm,ref_mm,duty`; t from the tick count (exact, 100 Hz -> 2 decimals).
+inline void telemetry_row(Reply& r, uint32_t ticks, uint16_t ticks_per_s, double v, double d_mm,
+                          double ref_mm, double duty) {
+  r.clear();
+  r.put_u(ticks / ticks_per_s);
+  r.put('.');
+  uint32_t frac = ticks % ticks_per_s;
+  // two decimals for 100 Hz; three for up to 1000 ticks/s.
+  const uint8_t digits = ticks_per_s <= 100 ? 2 : 3;
+  uint32_t unit = digits == 2 ? 100u : 1000u;
+  frac = frac * unit / ticks_per_s;
+  for (uint32_t s = unit / 10u; s > 0; s /= 10u) {
+    r.put(static_cast<char>('0' + frac / s));
+    frac %= s;
+  }
+  r.put(',');
+  r.put_fixed(v, 4);
+  r.put(',');
+  r.put_fixed(d_mm, 4);
+  r.put(',');
+  r.put_fixed(ref_mm, 4);
+  r.put(',');
+  r.put_fixed(duty, 5);
+}
+
+// ---- line assembly -----------------------------------------------------------------------------
+// Bytes in, complete lines out. A line ends at '\n' or '\r' ("\r\n" gives one line: the empty
+// line between them is ignored). An over-long line, or one with a NUL or a byte >= 128, is
+// reported once, at its end, as `overflow` / `binary`, and its bytes are dropped.
+class LineBuffer {
+ public:
+  enum class Status : uint8_t { Pending, Line, TooLong, Binary };
+
+  Status push(char c) {
+    if (c == '\n' || c == '\r') {
+      const Status s = too_long_ ? Status::TooLong : (binary_ ? Status::Binary : Status::Line);
+      const bool empty = len_ == 0 && !too_long_ && !binary_;
+      buf_[len_] = 0;
+      done_len_ = len_;
+      len_ = 0;
+      too_long_ = false;
+      binary_ = false;
+      if (empty && last_was_cr_ && c == '\n') {
+        last_was_cr_ = false;
+        return Status::Pending;  // the \n of \r\n
+      }
+      last_was_cr_ = c == '\r';
+      return s;
+    }
+    last_was_cr_ = false;
+    const uint8_t u = static_cast<uint8_t>(c);
+    if (u == 0 || u >= 128) binary_ = true;
+    if (len_ >= kLineMax) {
+      too_long_ = true;
+      return Status::Pending;
+    }
+    buf_[len_] = c;
+    len_ = static_cast<uint8_t>(len_ + 1);
+    return Status::Pending;
+  }
+  // The completed line (valid after push() returned Line, until the next push()).
+  const char* line() const { return buf_; }
+  uint8_t length() const { return done_len_; }
+
+ private:
+  char buf_[kLineMax + 1] = {};
+  uint8_t len_ = 0, done_len_ = 0;
+  bool too_long_ = false, binary_ = false, last_was_cr_ = false;
+};
+
+// ---- parsing -----------------------------------------------------------------------------------
+namespace detail {
+
+inline bool is_space(char c) { return c == ' ' || c == '\t'; }
+
+// Next token of the line: skips blanks, returns its start and length (0 at the end).
+inline const char* next_token(const char*& p, uint8_t& len) {
+  while (is_space(*p)) ++p;
+  const char* start = p;
+  len = 0;
+  while (*p != 0 && !is_space(*p)) {
+    ++p;
+    if (len < 255) len = static_cast<uint8_t>(len + 1);
+  }
+  return start;
+}
+
+// Token equals the flash string?
+inline bool token_is(const char* tok, uint8_t len, const char* word_f) {
+  uint8_t k = 0;
+  for (; k < len; ++k) {
+    const char w = flash_char(word_f + k);
+    if (w == 0 || w != tok[k]) return false;
+  }
+  return flash_char(word_f + k) == 0;
+}
+
+enum class Num : uint8_t { Ok, Bad, TooLong };
+
+// A plain decimal: [+-] digits [. digits] | [+-] . digits. At most 9 significant digits before
+// the point, extra fraction digits are dropped (truncated). No exponent, no inf, no nan.
+inline Num parse_number(const char* tok, uint8_t len, double& out) {
+  uint8_t k = 0;
+  bool neg = false;
+  if (k < len && (tok[k] == '+' || tok[k] == '-')) {
+    neg = tok[k] == '-';
+    ++k;
+  }
+  uint32_t mant = 0;
+  uint8_t sig = 0, frac_digits = 0, digits = 0;
+  bool point = false;
+  for (; k < len; ++k) {
+    const char c = tok[k];
+    if (c == '.') {
+      if (point) return Num::Bad;
+      point = true;
+      continue;
+    }
+    if (c < '0' || c > '9') return Num::Bad;
+    ++digits;
+    if (mant == 0 && c == '0' && !point) continue;  // leading zeros
+    if (sig >= 9) {
+      if (!point) return Num::TooLong;  // > 999999999: out of every range anyway
+      continue;                         // fraction digits past 9 significant ones
+    }
+    mant = mant * 10u + static_cast<uint32_t>(c - '0');
+    if (mant != 0) ++sig;
+    if (point) ++frac_digits;
+  }
+  if (digits == 0) return Num::Bad;  // "", "+", ".", "-."
+  double v = static_cast<double>(mant);
+  for (uint8_t f = 0; f < frac_digits; ++f) v /= 10.0;
+  out = neg ? -v : v;
+  return Num::Ok;
+}
+
+}  // namespace detail
+
+// Parses one line (no newline) into `cmd`. On error returns false, writes `ERR <problem>` into
+// `reply` and leaves `cmd` untouched. On success returns true (reply untouched).
+inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& lim = Limits()) {
+  using detail::next_token;
+  using detail::token_is;
+  // The LineBuffer never passes more than kLineMax chars; a caller that bypasses it gets the
+  // same answer (and the 8-bit token lengths below stay exact).
+  for (uint8_t n = 0; line[n] != 0; ++n) {
+    if (n >= kLineMax) {
+      reply.clear();
+      reply.put_f(SMA_F("ERR line too long (max "));
+      reply.put_u(kLineMax);
+      reply.put_f(SMA_F(" chars)"));
+      return false;
+    }
+  }
+  const char* p = line;
+  uint8_t len0 = 0;
+  const char* t0 = next_token(p, len0);
+  Command c;
+  const char* name = SMA_F("");
+  // Expected numeric arguments: count, and the range of each.
+  uint8_t nargs = 0;
+  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  const char* what[3] = {nullptr, nullptr, nullptr};  // SMA_F names of the numbers
+
+  auto err = [&](const char* msg_f) {
+    reply.clear();
+    reply.put_f(SMA_F("ERR "));
+    if (flash_char(name) != 0) {
+      reply.put_f(name);
+      reply.put_f(SMA_F(": "));
+    }
+    reply.put_f(msg_f);
+    return false;
+  };
+
+  uint8_t len = 0;
+  const char* tok = nullptr;
+  if (len0 == 0) {
+    c.op = Op::Empty;
+  } else if (token_is(t0, len0, SMA_F("pos"))) {
+    name = SMA_F("pos");
+    c.op = Op::Pos;
+    nargs = 1;
+    lo[0] = 0.0;
+    hi[0] = lim.g_mm;
+    what[0] = SMA_F("mm");
+  } else if (token_is(t0, len0, SMA_F("step"))) {
+    name = SMA_F("step");
+    c.op = Op::Step;
+  } else if (token_is(t0, len0, SMA_F("sine"))) {
+    name = SMA_F("sine");
+    c.op = Op::Sine;
+  } else if (token_is(t0, len0, SMA_F("traj"))) {
+    name = SMA_F("traj");
+    const char* save = p;
+    tok = next_token(p, len);
+    if (len == 0) return err(SMA_F("expected clear, run or <t_s> <mm>"));
+    if (token_is(tok, len, SMA_F("clear"))) {
+      c.op = Op::TrajClear;
+    } else if (token_is(tok, len, SMA_F("run"))) {
+      c.op = Op::TrajRun;
+    } else {
+      p = save;
+      c.op = Op::TrajPoint;
+      nargs = 2;
+      lo[0] = 0.0;
+      hi[0] = kTrajMaxS;
+      what[0] = SMA_F("t_s");
+      lo[1] = 0.0;
+      hi[1] = lim.g_mm;
+      what[1] = SMA_F("mm");
+    }
+  } else if (token_is(t0, len0, SMA_F("mode"))) {
+    name = SMA_F("mode");
+    c.op = Op::SetMode;
+    tok = next_token(p, len);
+    if (token_is(tok, len, SMA_F("open"))) c.mode = Mode::OpenLoop;
+    else if (token_is(tok, len, SMA_F("pid"))) c.mode = Mode::Pid;
+    else if (token_is(tok, len, SMA_F("ff"))) c.mode = Mode::Feedforward;
+    else if (token_is(tok, len, SMA_F("ffpid"))) c.mode = Mode::FeedforwardPid;
+    else return err(SMA_F("expected open, pid, ff or ffpid"));
+  } else if (token_is(t0, len0, SMA_F("volt"))) {
+    name = SMA_F("volt");
+    c.op = Op::Volt;
+    nargs = 1;
+    lo[0] = 0.0;
+    hi[0] = lim.v_max;
+    what[0] = SMA_F("V");
+  } else if (token_is(t0, len0, SMA_F("gains"))) {
+    name = SMA_F("gains");
+    c.op = Op::Gains;
+    nargs = 3;
+    for (uint8_t k = 0; k < 3; ++k) {
+      lo[k] = 0.0;
+      hi[k] = 999.0;
+    }
+    what[0] = SMA_F("kp");
+    what[1] = SMA_F("ki");
+    what[2] = SMA_F("kd");
+  } else if (token_is(t0, len0, SMA_F("tlim"))) {
+    name = SMA_F("tlim");
+    c.op = Op::Tlim;
+    nargs = 1;
+    lo[0] = 30.0;
+    hi[0] = 150.0;
+    what[0] = SMA_F("degC");
+  } else if (token_is(t0, len0, SMA_F("tele"))) {
+    name = SMA_F("tele");
+    c.op = Op::Tele;
+    tok = next_token(p, len);
+    if (token_is(tok, len, SMA_F("on"))) c.on = true;
+    else if (token_is(tok, len, SMA_F("off"))) c.on = false;
+    else return err(SMA_F("expected on or off"));
+  } else if (token_is(t0, len0, SMA_F("status"))) {
+    name = SMA_F("status");
+    c.op = Op::Status;
+  } else if (token_is(t0, len0, SMA_F("stop"))) {
+    name = SMA_F("stop");
+    c.op = Op::Stop;
+  } else if (token_is(t0, len0, SMA_F("help"))) {
+    name = SMA_F("help");
+    c.op = Op::Help;
+  } else {
+    reply.clear();
+    reply.put_f(SMA_F("ERR unknown command '"));
+    reply.put_s(t0, len0 > 12 ? 12 : len0);
+    reply.put_f(SMA_F("' (try help)"));
+    return false;
+  }
+
+  double v[3] = {0, 0, 0};
+  for (uint8_t k = 0; k < nargs; ++k) {
+    tok = next_token(p, len);
+    if (len == 0) {
+      reply.clear();
+      reply.put_f(SMA_F("ERR "));
+      reply.put_f(name);
+      reply.put_f(SMA_F(": missing number <"));
+      reply.put_f(what[k]);
+      reply.put('>');
+      return false;
+    }
+    const detail::Num r = detail::parse_number(tok, len, v[k]);
+    if (r != detail::Num::Ok || !(v[k] >= lo[k] && v[k] <= hi[k])) {
+      reply.clear();
+      reply.put_f(SMA_F("ERR "));
+      reply.put_f(name);
+      reply.put_f(SMA_F(": "));
+      reply.put_f(what[k]);
+      if (r == detail::Num::Bad) {
+        reply.put_f(SMA_F(" is not a number: '"));
+        reply.put_s(tok, len > 12 ? 12 : len);
+        reply.put('\'');
+      } else {
+        reply.put_f(SMA_F(" out of range "));
+        reply.put_fixed(lo[k], 3);
+        reply.put_f(SMA_F(".."));
+        reply.put_fixed(hi[k], 3);
+      }
+      return false;
+    }
+  }
+  tok = next_token(p, len);
+  if (len != 0) return err(SMA_F("unexpected extra text"));
+  c.a = v[0];
+  c.b = v[1];
+  c.c = v[2];
+  cmd = c;
+  return true;
+}
+
+// ---- execution ---------------------------------------------------------------------------------
+// Applies a parsed command to the state and writes the reply. `fault` is the latched safety
+// fault (Fault::None if none). Returns false (ERR, state untouched) if the command is refused.
+// Status and Help only write their reply here; the firmware appends live values to status
+// (status_line()).
+inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
+  reply.clear();
+  if (c.heats() && fault != Fault::None) {
+    reply.put_f(SMA_F("ERR fault "));
+    reply.put_f(fault_name(fault));
+    reply.put_f(SMA_F(": send stop"));
+    return false;
+  }
+  switch (c.op) {
+    case Op::Empty: return true;  // nothing, no reply
+    case Op::TrajPoint: {
+      if (s.traj.n_points >= kMaxPoints) {
+        reply.put_f(SMA_F("ERR traj: full (16 points)"));
+        return false;
+      }
+      if (s.traj.n_points > 0 && !(c.a > s.traj.point_t[s.traj.n_points - 1])) {
+        reply.put_f(SMA_F("ERR traj: t_s must increase"));
+        return false;
+      }
+      s.traj.add_point(c.a, c.b);
+      reply.put_f(SMA_F("OK traj point "));
+      reply.put_u(s.traj.n_points);
+      return true;
+    }
+    case Op::TrajRun:
+      if (s.traj.n_points == 0) {
+        reply.put_f(SMA_F("ERR traj: no points"));
+        return false;
+      }
+      break;
+    default: break;
+  }
+  reply.put_f(SMA_F("OK "));
+  switch (c.op) {
+    case Op::Pos:
+    case Op::Step:
+    case Op::Sine:
+    case Op::TrajRun:
+      if (c.op == Op::Pos) {
+        s.run_kind = RefKind::Constant;
+        s.pos_mm = c.a;
+      } else {
+        s.run_kind = c.op == Op::Step ? RefKind::MultiStep
+                     : c.op == Op::Sine ? RefKind::Sine : RefKind::Trajectory;
+      }
+      if (s.mode == Mode::OpenLoop) s.mode = Mode::FeedforwardPid;  // a reference needs a loop
+      s.heat = true;
+      ++s.run;
+      if (c.op == Op::Pos) {
+        reply.put_f(SMA_F("pos "));
+        reply.put_fixed(c.a, 4);
+      } else {
+        reply.put_f(c.op == Op::Step ? SMA_F("step") : c.op == Op::Sine ? SMA_F("sine") : SMA_F("traj run"));
+        if (c.op == Op::TrajRun) {
+          reply.put(' ');
+          reply.put_fixed(s.traj.duration(), 2);
+          reply.put_f(SMA_F(" s"));
+        }
+      }
+      reply.put(' ');
+      reply.put_f(mode_name_f(s.mode));
+      break;
+    case Op::TrajClear:
+      s.traj.n_points = 0;  // (no Reference temporary: 185 B of stack on AVR)
+      reply.put_f(SMA_F("traj clear"));
+      break;
+    case Op::SetMode:
+      s.mode = c.mode;
+      reply.put_f(SMA_F("mode "));
+      reply.put_f(mode_name_f(s.mode));
+      if (!s.heat) reply.put_f(SMA_F(" (heater off)"));
+      break;
+    case Op::Volt:
+      s.volt = c.a;
+      s.mode = Mode::OpenLoop;
+      s.heat = true;
+      reply.put_f(SMA_F("volt "));
+      reply.put_fixed(c.a, 4);
+      reply.put_f(SMA_F(" open"));
+      break;
+    case Op::Gains: {
+      PidGains& g = s.mode == Mode::Pid ? s.gains_pid : s.gains_ffpid;
+      g.kp = c.a;
+      g.ki = c.b;
+      g.kd = c.c;
+      reply.put_f(SMA_F("gains "));
+      reply.put_f(s.mode == Mode::Pid ? SMA_F("pid ") : SMA_F("ffpid "));
+      reply.put_fixed(c.a, 4);
+      reply.put(' ');
+      reply.put_fixed(c.b, 4);
+      reply.put(' ');
+      reply.put_fixed(c.c, 4);
+      break;
+    }
+    case Op::Tlim:
+      s.tlim_C = c.a;
+      reply.put_f(SMA_F("tlim "));
+      reply.put_fixed(c.a, 1);
+      break;
+    case Op::Tele:
+      s.tele = c.on;
+      reply.put_f(c.on ? SMA_F("tele on") : SMA_F("tele off"));
+      break;
+    case Op::Status: reply.put_f(SMA_F("status")); break;
+    case Op::Stop:
+      s.heat = false;
+      reply.put_f(SMA_F("stop"));
+      break;
+    case Op::Help:
+      // (fits kReplyMax: the full table is in this header and the README)
+      reply.put_f(SMA_F("pos mm|step|sine|traj clear/run/t mm|mode open/pid/ff/ffpid|volt V|"
+                        "gains kp ki kd|tlim C|tele on/off|status|stop"));
+      break;
+    default: break;
+  }
+  return true;
+}
+
+// parse + apply. Returns true for OK (or an empty line: reply empty), false for ERR.
+inline bool execute(const char* line, State& s, Fault fault, Reply& reply,
+                    const Limits& lim = Limits(), Command* parsed = nullptr) {
+  Command c;
+  if (!parse(line, c, reply, lim)) return false;
+  if (parsed) *parsed = c;
+  return apply(c, s, fault, reply);
+}
+
+// The reply to a bad line from the LineBuffer.
+inline void line_error(LineBuffer::Status st, Reply& reply) {
+  reply.clear();
+  if (st == LineBuffer::Status::TooLong) {
+    reply.put_f(SMA_F("ERR line too long (max "));
+    reply.put_u(kLineMax);
+    reply.put_f(SMA_F(" chars)"));
+  }
+  else reply.put_f(SMA_F("ERR line has a NUL or non-ASCII byte"));
+}
+
+// Live values for `status`.
+struct Live {
+  uint32_t ticks = 0;     // since boot
+  double t_ref_s = 0.0;   // time in the running reference
+  double d_mm = 0.0, ref_mm = 0.0, v = 0.0, temp_C = 0.0;
+  Fault fault = Fault::None;
+  uint16_t dropped = 0;   // replies or rows dropped for lack of serial buffer
+  uint16_t overruns = 0;  // ticks lost because the previous one was still running
+};
+
+// `OK status <mode> <ref kind> t=<s> d=<mm> r=<mm> V=<V> T=<C> tlim=<C> fault=<name> drop=<n> ovr=<n>`
+inline void status_line(Reply& r, const State& s, const Live& l) {
+  r.clear();
+  r.put_f(SMA_F("OK status "));
+  r.put_f(mode_name_f(s.active_mode()));
+  r.put(' ');
+  switch (s.run_kind) {
+    case RefKind::MultiStep: r.put_f(SMA_F("step")); break;
+    case RefKind::Sine: r.put_f(SMA_F("sine")); break;
+    case RefKind::Trajectory: r.put_f(SMA_F("traj")); break;
+    default: r.put_f(SMA_F("pos")); break;
+  }
+  r.put_f(SMA_F(" t="));
+  r.put_fixed(l.t_ref_s, 2);
+  r.put_f(SMA_F(" d="));
+  r.put_fixed(l.d_mm, 4);
+  r.put_f(SMA_F(" r="));
+  r.put_fixed(l.ref_mm, 4);
+  r.put_f(SMA_F(" V="));
+  r.put_fixed(l.v, 3);
+  r.put_f(SMA_F(" T="));
+  r.put_fixed(l.temp_C, 1);
+  r.put_f(SMA_F(" tlim="));
+  r.put_fixed(s.tlim_C, 0);
+  r.put_f(SMA_F(" fault="));
+  r.put_f(fault_name(l.fault));
+  r.put_f(SMA_F(" drop="));
+  r.put_u(l.dropped);
+  r.put_f(SMA_F(" ovr="));
+  r.put_u(l.overruns);
+}
+
+}  // namespace console
+}  // namespace sma
+
+#endif  // SMA_CONSOLE_HPP

@@ -1,0 +1,859 @@
+// sma_fit: identification of the model from a training log, as in the paper's section III.B.
+//
+// The model is run only through the library (sma::Plant, via replay.hpp) on the log's own v_V;
+// Eigen's Levenberg-Marquardt (unsupported/NonLinearOptimization) minimises the displacement
+// residual d_model - d_mm over the chosen parameters. The Jacobian is a forward difference with
+// a fixed step per parameter (the hysteresis is piecewise: derivatives from steps near machine
+// precision would be noise). After the fit: covariance = s^2 (J^T J)^-1 (pseudo-inverse: a
+// direction the log does not excite is reported as not identifiable), 95 % intervals, the
+// correlation matrix, and the pairs that are hard to separate.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <sys/stat.h>
+#include <sys/types.h>
+
+#include <Eigen/Dense>
+#include <unsupported/Eigen/NonLinearOptimization>
+
+#include "sma_tools/cli.hpp"
+#include "sma_tools/params_json.hpp"
+#include "sma_tools/replay.hpp"
+#include "sma_tools/rig_log.hpp"
+
+using namespace sma_tools;
+
+static const char* kUsage =
+    "usage: sma_fit LOG.csv --out DIR [--params START.json] [--validate LOG2.csv]\n"
+    "               [--fit NAMES | --fix NAMES] [--max-points N] [--max-evals N] [--eps0 X]\n"
+    "\n"
+    "Fits the model to a training log (paper III.B: slow decaying voltage ramp with reversals)\n"
+    "and writes DIR/params.json (contract format), DIR/fit.json, DIR/report.md,\n"
+    "DIR/fit_curves.csv (and DIR/validate_curves.csv) for the plots.\n"
+    "\n"
+    "  --params START.json  start values and everything not fitted (default: the paper's)\n"
+    "  --fit NAMES          comma list of parameters to fit (default: all of\n"
+    "                       h,T_AS,T_AF,T_MF,q,e,T_MSs,T_MSf,g,offset_mm,j1..jn,T_ii1..T_iin\n"
+    "                       where n = number of loops); also available: T_amb, gain, R\n"
+    "  --fix NAMES          remove these from the default set\n"
+    "  --validate LOG2.csv  a second log, not used for the fit: RMS / max error of the fitted\n"
+    "                       model on it (with the fitted sensor offset and with the sensor\n"
+    "                       tared on its first samples)\n"
+    "  --max-points N       residual samples used by the fit (default 6000, evenly spaced)\n"
+    "  --max-evals N        budget of model runs for LM (default 400)\n"
+    "  --eps0 X             austenite fraction at the start of the log (default 0)\n"
+    "  --max-bad F          refuse a log with more than this fraction of bad rows (0.01)\n"
+    "  --loops-at-reversals move the loop knots T_i from the start values to the log's reversal\n"
+    "                       temperatures inside (T_s, T_f), where j and T_ii are observed\n"
+    "                       (default set of --fit only)\n";
+
+namespace {
+
+// ---- the fitted parameters ---------------------------------------------------------------------
+struct ParamSpec {
+  std::string name;
+  double scale;   // normalisation: one unit of the optimiser's x (and the Jacobian step / 100)
+  bool log;       // positive quantity fitted as log (h, g, R, gain)
+  double* (*ref)(Model&, int);
+  int index;      // loop index for j / T_ii
+};
+
+double* ref_h(Model& m, int) { return &m.p.h; }
+double* ref_TAS(Model& m, int) { return &m.p.T_AS; }
+double* ref_TAF(Model& m, int) { return &m.p.T_AF; }
+double* ref_TMF(Model& m, int) { return &m.p.T_MF; }
+double* ref_q(Model& m, int) { return &m.p.q; }
+double* ref_e(Model& m, int) { return &m.p.e; }
+double* ref_TMSs(Model& m, int) { return &m.p.T_MSs; }
+double* ref_TMSf(Model& m, int) { return &m.p.T_MSf; }
+double* ref_g(Model& m, int) { return &m.p.g; }
+double* ref_R(Model& m, int) { return &m.p.R; }
+double* ref_Tamb(Model& m, int) { return &m.p.T_amb; }
+double* ref_off(Model& m, int) { return &m.fx.sensor_offset_mm; }
+double* ref_gain(Model& m, int) { return &m.fx.sensor_gain; }
+double* ref_j(Model& m, int k) { return &m.p.loops[k].j; }
+double* ref_Tii(Model& m, int k) { return &m.p.loops[k].T_ii; }
+
+std::vector<ParamSpec> all_specs(const Model& m) {
+  const double g = m.p.g;
+  std::vector<ParamSpec> s = {
+      {"h", 0.1, true, ref_h, 0},          {"T_AS", 1.0, false, ref_TAS, 0},
+      {"T_AF", 1.0, false, ref_TAF, 0},    {"T_MF", 1.0, false, ref_TMF, 0},
+      {"q", 1.0, false, ref_q, 0},         {"e", 1.0, false, ref_e, 0},
+      {"T_MSs", 1.0, false, ref_TMSs, 0},  {"T_MSf", 1.0, false, ref_TMSf, 0},
+      {"g", 0.05, true, ref_g, 0},         {"offset_mm", 0.01 * g, false, ref_off, 0},
+      {"T_amb", 1.0, false, ref_Tamb, 0},  {"gain", 0.05, true, ref_gain, 0},
+      {"R", 0.05, true, ref_R, 0}};
+  for (int k = 0; k < m.p.n_loops; ++k) {
+    s.push_back({"j" + std::to_string(k + 1), 0.02, false, ref_j, k});
+    s.push_back({"T_ii" + std::to_string(k + 1), 1.0, false, ref_Tii, k});
+  }
+  return s;
+}
+
+std::vector<std::string> default_fit(const Model& m) {
+  std::vector<std::string> n = {"h", "T_AS", "T_AF", "T_MF", "q", "e", "T_MSs", "T_MSf", "g", "offset_mm"};
+  for (int k = 0; k < m.p.n_loops; ++k) {
+    n.push_back("j" + std::to_string(k + 1));
+    n.push_back("T_ii" + std::to_string(k + 1));
+  }
+  return n;
+}
+
+// ---- the residual ------------------------------------------------------------------------------
+struct Problem {
+  const RigLog* log;
+  Model start;
+  std::vector<ParamSpec> specs;  // fitted, in order
+  std::vector<double> x0;        // start values (physical)
+  size_t stride = 1;
+  double eps0 = 0.0;
+  double penalty = 1.0;          // residual of a non-physical set, mm
+  mutable long runs = 0;
+
+  // x (normalised) -> model
+  Model model_at(const Eigen::VectorXd& x) const {
+    Model m = start;
+    for (size_t i = 0; i < specs.size(); ++i) {
+      const ParamSpec& s = specs[i];
+      const double xi = x[static_cast<Eigen::Index>(i)];
+      *s.ref(m, s.index) = s.log ? x0[i] * std::exp(xi * s.scale) : x0[i] + xi * s.scale;
+    }
+    // T_MS is not used by the hysteresis (the major cooling branch starts at T_MSi, eq 10), but
+    // Params::check wants T_MS > T_MF: it follows T_MF instead of bounding it.
+    if (!(m.p.T_MS > m.p.T_MF)) m.p.T_MS = m.p.T_MF + 1.0;
+    return m;
+  }
+  // d(physical)/d(x) at x, for the covariance in physical units.
+  double dphys(const Eigen::VectorXd& x, size_t i) const {
+    const ParamSpec& s = specs[i];
+    const double xi = x[static_cast<Eigen::Index>(i)];
+    return s.log ? x0[i] * std::exp(xi * s.scale) * s.scale : s.scale;
+  }
+  size_t rows() const { return (log->size() + stride - 1) / stride; }
+
+  // Residuals; false if the set is not physical (then f = penalty everywhere).
+  bool residual(const Model& m, Eigen::VectorXd& f) const {
+    const size_t n = rows();
+    f.resize(static_cast<Eigen::Index>(n));
+    if (m.p.check() || m.fx.check()) {
+      f.setConstant(penalty);
+      return false;
+    }
+    ReplayOptions o;
+    o.stride = stride;
+    o.eps0 = eps0;
+    o.want_states = false;
+    Trace tr;
+    replay(m, log->t, log->v, o, tr);
+    ++runs;
+    for (size_t k = 0; k < n; ++k)
+      f[static_cast<Eigen::Index>(k)] = tr.y[k] - log->d[k * stride];
+    return true;
+  }
+};
+
+struct LmFunctor {
+  typedef double Scalar;
+  enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
+  typedef Eigen::VectorXd InputType;
+  typedef Eigen::VectorXd ValueType;
+  typedef Eigen::MatrixXd JacobianType;
+  const Problem* pb;
+  int inputs() const { return static_cast<int>(pb->specs.size()); }
+  int values() const { return static_cast<int>(pb->rows()); }
+  int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
+    pb->residual(pb->model_at(x), f);
+    return 0;
+  }
+  // Forward differences, step 0.01 normalised units (0.01 K for temperatures, 0.1 % for h, g).
+  int df(const Eigen::VectorXd& x, Eigen::MatrixXd& J) const {
+    Eigen::VectorXd f0, f1;
+    pb->residual(pb->model_at(x), f0);
+    J.resize(f0.size(), x.size());
+    for (Eigen::Index i = 0; i < x.size(); ++i) {
+      Eigen::VectorXd xs = x;
+      double h = 0.01;
+      xs[i] += h;
+      if (!pb->residual(pb->model_at(xs), f1)) {  // at a bound: step the other way
+        xs[i] = x[i] - h;
+        pb->residual(pb->model_at(xs), f1);
+        h = -h;
+      }
+      J.col(i) = (f1 - f0) / h;
+    }
+    return 0;
+  }
+};
+
+// ---- statistics --------------------------------------------------------------------------------
+struct Stats {
+  double rms = 0, max = 0, mean = 0;
+  double lag1 = 0;  // autocorrelation of the residual at one sample
+};
+
+Stats stats_of(const std::vector<double>& r) {
+  Stats s;
+  if (r.empty()) return s;
+  double sum = 0, sq = 0;
+  for (double x : r) {
+    sum += x;
+    sq += x * x;
+    s.max = std::max(s.max, std::fabs(x));
+  }
+  const double n = static_cast<double>(r.size());
+  s.mean = sum / n;
+  s.rms = std::sqrt(sq / n);
+  double num = 0, den = 0;
+  for (size_t k = 0; k < r.size(); ++k) {
+    den += (r[k] - s.mean) * (r[k] - s.mean);
+    if (k) num += (r[k] - s.mean) * (r[k - 1] - s.mean);
+  }
+  s.lag1 = den > 0 ? num / den : 0.0;
+  return s;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const size_t k = static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5);
+  return v[std::min(k, v.size() - 1)];
+}
+
+// Displacement noise from the second differences (a slow signal cancels in them).
+double noise_estimate(const std::vector<double>& d) {
+  if (d.size() < 10) return 0.0;
+  std::vector<double> dd;
+  for (size_t k = 2; k < d.size(); ++k) dd.push_back(std::fabs(d[k] - 2 * d[k - 1] + d[k - 2]));
+  // median |N(0, 6 s^2)| = 0.6745 sqrt(6) s
+  return percentile(dd, 0.5) / (0.6745 * std::sqrt(6.0));
+}
+
+std::string fmt(double x, int prec = 4) {
+  if (!std::isfinite(x)) return "inf";
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*g", prec, x);
+  return buf;
+}
+std::string fixed(double x, int dec) {
+  if (!std::isfinite(x)) return "inf";
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*f", dec, x);
+  return buf;
+}
+
+double start_offset(const RigLog& log) {
+  const size_t n = std::min<size_t>(log.size(), 50);
+  double s = 0;
+  for (size_t k = 0; k < n; ++k) s += log.d[k];
+  return s / static_cast<double>(n);
+}
+
+void write_curves(const std::string& path, const RigLog& log, const Trace& fit, const Trace& start,
+                  const std::string& comment) {
+  std::ofstream f(path);
+  if (!f) throw Error(path + ": cannot write");
+  f << "# " << comment << "\n";
+  f << "t_s,v_V,d_mm,d_fit_mm,d_start_mm,T_fit_C,eps_fit,D_fit_mm\n";
+  const size_t stride = std::max<size_t>(1, log.size() / 20000);
+  char buf[256];
+  for (size_t k = 0; k < log.size(); k += stride) {
+    std::snprintf(buf, sizeof buf, "%.4f,%.5f,%.6f,%.6f,%.6f,%.4f,%.6f,%.6f\n", log.t[k], log.v[k],
+                  log.d[k], fit.y[k], start.y[k], fit.T[k], fit.eps[k], fit.D[k]);
+    f << buf;
+  }
+}
+
+void make_dirs(const std::string& dir) {
+  for (size_t pos = 1; pos <= dir.size(); ++pos) {
+    if (pos < dir.size() && dir[pos] != '/') continue;
+    const std::string part = dir.substr(0, pos);
+    struct stat st;
+    if (stat(part.c_str(), &st) == 0) {
+      if (!S_ISDIR(st.st_mode)) throw Error(part + ": exists and is not a directory");
+      continue;
+    }
+    if (mkdir(part.c_str(), 0777) != 0) throw Error(part + ": cannot create directory");
+  }
+}
+
+struct Validation {
+  std::string name;
+  size_t rows = 0;
+  Stats fitted_offset, tared;
+  double tare_offset = 0;
+};
+
+int run(int argc, char** argv) {
+  Args a(argc, argv);
+  std::string log_path, out_dir, params_path, val_path, fit_list, fix_list;
+  size_t max_points = 6000;
+  long max_evals = 400;
+  double eps0 = 0.0;
+  bool loops_at_reversals = false;
+  LogReadOptions lro;
+  if (a.empty()) {
+    std::cerr << kUsage;
+    return 2;
+  }
+  while (!a.empty()) {
+    const std::string k = a.next();
+    if (k == "-h" || k == "--help") {
+      std::cout << kUsage;
+      return 0;
+    } else if (k == "--out") out_dir = a.value(k);
+    else if (k == "--params") params_path = a.value(k);
+    else if (k == "--validate") val_path = a.value(k);
+    else if (k == "--fit") fit_list = a.value(k);
+    else if (k == "--fix") fix_list = a.value(k);
+    else if (k == "--max-points") max_points = static_cast<size_t>(std::max(100.0, a.number(k)));
+    else if (k == "--max-evals") max_evals = static_cast<long>(std::max(10.0, a.number(k)));
+    else if (k == "--eps0") eps0 = a.number(k);
+    else if (k == "--max-bad") lro.max_bad_fraction = a.number(k);
+    else if (k == "--loops-at-reversals") loops_at_reversals = true;
+    else if (!k.empty() && k[0] == '-') throw Error("unknown option '" + k + "' (see --help)");
+    else if (log_path.empty()) log_path = k;
+    else throw Error("unexpected argument '" + k + "' (one training log; use --validate for a second)");
+  }
+  if (log_path.empty()) throw Error("no training log given (see --help)");
+  if (out_dir.empty()) throw Error("--out DIR is required");
+  if (!(eps0 >= 0.0 && eps0 <= 1.0)) throw Error("--eps0 must be in 0..1");
+
+  Model start = read_model(params_path);
+  const std::string start_name = params_path.empty() ? "the paper's Table II" : params_path;
+  const RigLog log = read_rig_log(log_path, lro);
+  std::vector<std::string> notes;
+  if (log.dropped) {
+    std::cerr << dropped_note(log) << "\n";
+    notes.push_back(log.name + ": dropped " + std::to_string(log.dropped) + " bad rows of " +
+                    std::to_string(log.rows_read));
+  }
+
+  // ---- is there anything to identify? ----------------------------------------------------------
+  const double tau = start.p.heat_capacity() / start.p.conductance();
+  if (log.size() < 100 || log.duration() < tau)
+    throw Error(log.name + ": too short to identify anything: " + std::to_string(log.size()) +
+                " rows over " + fixed(log.duration(), 1) + " s (need >= 100 rows and >= " +
+                fixed(tau, 1) + " s, one thermal time constant of the start model)");
+  if (log.duration() < 5.0 * tau)
+    notes.push_back(log.name + " lasts " + fixed(log.duration(), 1) + " s, less than 5 thermal time constants (" +
+                    fixed(5 * tau, 1) + " s) of the start model: the thermal parameters are poorly determined");
+  const double vlo = *std::min_element(log.v.begin(), log.v.end());
+  const double vhi = *std::max_element(log.v.begin(), log.v.end());
+  if (!(vhi - vlo > 1e-3))
+    throw Error(log.name + ": no excitation: v_V is constant (" + fixed(vlo, 4) +
+                " V) over the whole log; identification needs a voltage that heats the wire "
+                "through its transformation and back (e.g. sma_sim --volt train)");
+  const double noise = noise_estimate(log.d);
+  const double dspan = percentile(log.d, 0.99) - percentile(log.d, 0.01);
+  if (!(dspan > std::max(20.0 * noise, 1e-3)))
+    throw Error(log.name + ": no excitation: d_mm only spans " + fmt(dspan) +
+                " mm (noise about " + fmt(noise) + " mm): the wire did not move");
+  if (start.fx.sensor_offset_mm == 0.0) start.fx.sensor_offset_mm = start_offset(log);
+
+  // Start model: does it transform at all on this voltage?
+  Trace tr0;
+  {
+    ReplayOptions o;
+    o.eps0 = eps0;
+    replay(start, log.t, log.v, o, tr0);
+  }
+  const double Tmax0 = *std::max_element(tr0.T.begin(), tr0.T.end());
+  if (Tmax0 < start.p.T_AS)
+    throw Error(log.name + ": with the start parameters (" + start_name +
+                ") the wire never reaches T_AS = " + fixed(start.p.T_AS, 1) + " degC (model max " +
+                fixed(Tmax0, 1) + " degC at " + fixed(vhi, 3) +
+                " V): give --params with R, h, d0, L0, T_amb of your wire");
+
+  // ---- parameters to fit -------------------------------------------------------------------------
+  const std::vector<ParamSpec> specs_all = all_specs(start);
+  std::vector<std::string> names = fit_list.empty() ? default_fit(start) : split_names(fit_list);
+  for (const auto& f : split_names(fix_list)) {
+    const auto it = std::find(names.begin(), names.end(), f);
+    bool known = false;
+    for (const auto& s : specs_all) known = known || s.name == f;
+    if (!known) throw Error("--fix: unknown parameter '" + f + "'");
+    if (it != names.end()) names.erase(it);
+  }
+  Problem pb;
+  pb.log = &log;
+  pb.start = start;
+  pb.eps0 = eps0;
+  pb.stride = std::max<size_t>(1, (log.size() + max_points - 1) / max_points);
+  pb.penalty = 10.0 * std::max(dspan, 1e-3);
+  for (const auto& n : names) {
+    const ParamSpec* found = nullptr;
+    for (const auto& s : specs_all)
+      if (s.name == n) found = &s;
+    if (!found) {
+      std::string known;
+      for (const auto& s : specs_all) known += " " + s.name;
+      throw Error("--fit: unknown parameter '" + n + "' (known:" + known + ")");
+    }
+    for (const auto& s : pb.specs)
+      if (s.name == n) throw Error("--fit: '" + n + "' given twice");
+    pb.specs.push_back(*found);
+    Model tmp = start;
+    pb.x0.push_back(*found->ref(tmp, found->index));
+  }
+  if (pb.specs.empty()) throw Error("nothing to fit");
+
+  // ---- stage 1: the major loop and the thermal gain, from several starts of h --------------------
+  // A quasi-static ramp fixes mostly G (T - T_amb) products: h and the transformation
+  // temperatures slide along a valley together, and LM from one start can stop far down it. The
+  // major-loop parameters are therefore first fitted alone from h0 x 2^(-1..1), and the best
+  // becomes the start of the full fit.
+  std::string stage1_note;
+  {
+    const char* major[] = {"h", "T_AS", "T_AF", "T_MF", "g", "offset_mm", "T_amb", "gain", "R"};
+    Problem p1 = pb;
+    p1.specs.clear();
+    p1.x0.clear();
+    bool has_h = false;
+    for (size_t i = 0; i < pb.specs.size(); ++i)
+      for (const char* mname : major)
+        if (pb.specs[i].name == mname) {
+          p1.specs.push_back(pb.specs[i]);
+          has_h = has_h || pb.specs[i].name == "h";
+        }
+    if (p1.specs.size() >= 1 && p1.specs.size() < pb.specs.size()) {
+      std::vector<double> mults = {1.0};
+      if (has_h) mults = {1.0, 0.5, 0.63, 0.79, 1.26, 1.59, 2.0};
+      double best_sse = INFINITY;
+      Model best = pb.start;
+      double best_mult = 1.0;
+      for (double mult : mults) {
+        p1.start = pb.start;
+        p1.start.p.h = pb.start.p.h * mult;
+        p1.x0.clear();
+        for (const auto& sp : p1.specs) p1.x0.push_back(*sp.ref(p1.start, sp.index));
+        LmFunctor f1{&p1};
+        Eigen::VectorXd x1 = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(p1.specs.size()));
+        Eigen::LevenbergMarquardt<LmFunctor> lm1(f1);
+        lm1.parameters.maxfev = 60;
+        lm1.parameters.xtol = 1e-5;
+        lm1.parameters.ftol = 1e-6;
+        lm1.parameters.factor = 10.0;
+        lm1.minimize(x1);
+        Eigen::VectorXd r1;
+        const Model m1 = p1.model_at(x1);
+        if (!p1.residual(m1, r1)) continue;
+        if (r1.squaredNorm() < best_sse) {
+          best_sse = r1.squaredNorm();
+          best = m1;
+          best_mult = mult;
+        }
+      }
+      pb.runs += p1.runs;
+      pb.start = best;
+      for (size_t i = 0; i < pb.specs.size(); ++i) pb.x0[i] = *pb.specs[i].ref(best, pb.specs[i].index);
+      stage1_note = "stage 1 (major loop";
+      stage1_note += has_h ? ", best of 7 starts of h: x" + fixed(best_mult, 2) + ")" : ")";
+      stage1_note += ": RMS " + fmt(std::sqrt(best_sse / static_cast<double>(pb.rows()))) + " mm";
+    }
+  }
+
+  // ---- loop knots at the log's reversals -----------------------------------------------------------
+  // j and T_ii are only observed at the peak temperatures T_i the log reverses at; the model
+  // interpolates them between knots. As in the paper (T_1..T_5 of Fig. 5 are the training's
+  // reversals), the knots are put at the reversals of the stage-1 model's temperature inside
+  // (T_s, T_f), so each fitted j_i, T_ii belongs to a loop the log really ran.
+  if (fit_list.empty() && loops_at_reversals) {
+    Trace tr1;
+    ReplayOptions o;
+    o.eps0 = eps0;
+    replay(pb.start, log.t, log.v, o, tr1);
+    std::vector<double> peaks;
+    const double thr = 3.0;  // K: a reversal is a fall of at least this much after a peak
+    double cand = tr1.T[0], low = tr1.T[0];
+    bool rising = true;
+    for (double T : tr1.T) {
+      if (rising) {
+        if (T > cand) cand = T;
+        if (T < cand - thr) {
+          peaks.push_back(cand);
+          rising = false;
+          low = T;
+        }
+      } else {
+        if (T < low) low = T;
+        if (T > low + thr) {
+          rising = true;
+          cand = T;
+        }
+      }
+    }
+    const sma::Params& P = pb.start.p;
+    std::vector<double> inner;
+    for (double T : peaks)
+      if (T > P.T_s + 0.5 && T < P.T_f - 0.5) inner.push_back(T);
+    std::sort(inner.begin(), inner.end());
+    std::vector<double> knots;
+    for (double T : inner)
+      if (knots.empty() || T - knots.back() > 1.0) knots.push_back(T);
+    while (knots.size() > sma::kMaxLoopKnots) {  // drop the knot closest to its neighbour
+      size_t worst = 1;
+      for (size_t i = 1; i < knots.size(); ++i)
+        if (knots[i] - knots[i - 1] < knots[worst] - knots[worst - 1]) worst = i;
+      knots.erase(knots.begin() + static_cast<long>(worst));
+    }
+    if (!knots.empty()) {
+      double jmean = 0;
+      for (int k = 0; k < P.n_loops; ++k) jmean += P.loops[k].j / P.n_loops;
+      if (!(jmean > 0.01)) jmean = 0.1;
+      Model m = pb.start;
+      m.p.n_loops = static_cast<uint8_t>(knots.size());
+      std::string list;
+      for (size_t k = 0; k < knots.size(); ++k) {
+        m.p.loops[k] = {knots[k], knots[k] - 2.0, jmean};
+        list += (k ? ", " : "") + fixed(knots[k], 1);
+      }
+      pb.start = m;
+      std::vector<ParamSpec> keep;
+      std::vector<double> keep_x0;
+      for (size_t i = 0; i < pb.specs.size(); ++i)
+        if (pb.specs[i].ref != ref_j && pb.specs[i].ref != ref_Tii) {
+          keep.push_back(pb.specs[i]);
+          keep_x0.push_back(*pb.specs[i].ref(m, pb.specs[i].index));
+        }
+      for (const ParamSpec& sp : all_specs(m))
+        if (sp.ref == ref_j || sp.ref == ref_Tii) {
+          keep.push_back(sp);
+          keep_x0.push_back(*sp.ref(m, sp.index));
+        }
+      pb.specs = keep;
+      pb.x0 = keep_x0;
+      notes.push_back("loop knots T_i moved to the log's reversals inside (T_s, T_f) = (" + fixed(P.T_s, 1) +
+                      ", " + fixed(P.T_f, 1) + ") of the stage-1 model: " + list +
+                      " degC");
+    }
+  }
+
+  // Drop what this log does not excite (a zero column of the Jacobian after stage 1).
+  LmFunctor fun{&pb};
+  {
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(pb.specs.size()));
+    Eigen::MatrixXd J;
+    fun.df(x, J);
+    const double colmax = J.colwise().norm().maxCoeff();
+    std::vector<ParamSpec> keep;
+    std::vector<double> keep_x0;
+    for (size_t i = 0; i < pb.specs.size(); ++i) {
+      if (J.col(static_cast<Eigen::Index>(i)).norm() <= 1e-9 * colmax) {
+        notes.push_back(pb.specs[i].name + ": kept at its start value " + fmt(pb.x0[i], 6) +
+                        ": this log does not excite it (no sensitivity after stage 1)");
+      } else {
+        keep.push_back(pb.specs[i]);
+        keep_x0.push_back(pb.x0[i]);
+      }
+    }
+    pb.specs = keep;
+    pb.x0 = keep_x0;
+    if (pb.specs.empty()) throw Error(log.name + ": no parameter is excited by this log");
+  }
+  const size_t np = pb.specs.size();
+  if (pb.rows() < 3 * np)
+    throw Error(log.name + ": too few samples (" + std::to_string(pb.rows()) + ") for " +
+                std::to_string(np) + " parameters");
+
+  // ---- Levenberg-Marquardt -----------------------------------------------------------------------
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(np));
+  Eigen::VectorXd f_start;
+  pb.residual(pb.model_at(x), f_start);
+  Eigen::LevenbergMarquardt<LmFunctor> lm(fun);
+  lm.parameters.maxfev = max_evals / static_cast<long>(np + 1) + 5;  // LM counts residual calls
+  lm.parameters.xtol = 1e-6;
+  lm.parameters.ftol = 1e-8;
+  lm.parameters.factor = 10.0;
+  const int status = static_cast<int>(lm.minimize(x));
+  Model fitted = pb.model_at(x);
+  check_model(fitted, "fitted parameters");
+
+  // ---- uncertainty -----------------------------------------------------------------------------
+  Eigen::MatrixXd J;
+  fun.df(x, J);
+  Eigen::VectorXd fres;
+  pb.residual(fitted, fres);
+  for (size_t i = 0; i < np; ++i) J.col(static_cast<Eigen::Index>(i)) /= pb.dphys(x, i);  // physical units
+  const double m_rows = static_cast<double>(fres.size());
+  const double s2 = fres.squaredNorm() / std::max(1.0, m_rows - static_cast<double>(np));
+  std::vector<double> fr(fres.data(), fres.data() + fres.size());
+  const Stats fs = stats_of(fr);
+  // Residual correlation between neighbouring samples makes s^2 (J^T J)^-1 optimistic by about
+  // (1 + rho) / (1 - rho) (AR(1) residual): reported as an inflation of the intervals.
+  const double rho = std::min(0.99, std::max(0.0, fs.lag1));
+  const double inflate = std::sqrt((1 + rho) / (1 - rho));
+  // Normalise columns, then SVD: (J^T J)^+ without squaring the condition number.
+  Eigen::VectorXd cn = J.colwise().norm().transpose();
+  for (Eigen::Index i = 0; i < cn.size(); ++i) cn[i] = cn[i] > 0 ? cn[i] : 1.0;
+  const Eigen::MatrixXd Jn = J * cn.cwiseInverse().asDiagonal();
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Jn, Eigen::ComputeThinV);
+  const Eigen::VectorXd sv = svd.singularValues();
+  const double cutoff = 1e-7 * sv[0];
+  Eigen::MatrixXd covn = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(np), static_cast<Eigen::Index>(np));
+  std::vector<bool> unresolved(np, false);
+  for (Eigen::Index k = 0; k < sv.size(); ++k) {
+    const Eigen::VectorXd v = svd.matrixV().col(k);
+    if (sv[k] > cutoff) {
+      covn += v * v.transpose() / (sv[k] * sv[k]);
+    } else {
+      for (Eigen::Index i = 0; i < v.size(); ++i)
+        if (std::fabs(v[i]) > 0.05) unresolved[static_cast<size_t>(i)] = true;
+    }
+  }
+  const Eigen::MatrixXd cov = s2 * cn.cwiseInverse().asDiagonal() * covn * cn.cwiseInverse().asDiagonal();
+  const double cond = sv[sv.size() - 1] > 0 ? sv[0] / sv[sv.size() - 1] : INFINITY;
+  std::vector<double> sigma(np), value(np), startv(np);
+  for (size_t i = 0; i < np; ++i) {
+    const Eigen::Index ii = static_cast<Eigen::Index>(i);
+    sigma[i] = unresolved[i] ? INFINITY : std::sqrt(std::max(0.0, cov(ii, ii)));
+    value[i] = *pb.specs[i].ref(fitted, pb.specs[i].index);
+    startv[i] = *pb.specs[i].ref(start, pb.specs[i].index);
+  }
+  for (size_t i = 0; i < np; ++i) {
+    if (unresolved[i])
+      notes.push_back(pb.specs[i].name + " = " + fmt(value[i], 6) +
+                      " is not determined by this log on its own (only a combination with other parameters is)");
+    else if (!(1.96 * sigma[i] * inflate < 0.5 * std::max(std::fabs(value[i]), pb.specs[i].scale)))
+      notes.push_back(pb.specs[i].name + " = " + fmt(value[i], 6) + " is poorly determined (95 % interval +-" +
+                      fmt(1.96 * sigma[i] * inflate, 3) + ")");
+    const double ratio = value[i] / startv[i];
+    if (pb.specs[i].log && (ratio > 5.0 || ratio < 0.2))
+      notes.push_back(pb.specs[i].name + " moved from " + fmt(startv[i], 4) + " to " + fmt(value[i], 4) +
+                      ": check the start values (R, d0, L0, T_amb) and that the log heats AND cools the wire");
+  }
+  Eigen::MatrixXd corr = Eigen::MatrixXd::Identity(static_cast<Eigen::Index>(np), static_cast<Eigen::Index>(np));
+  for (size_t i = 0; i < np; ++i)
+    for (size_t j = 0; j < np; ++j) {
+      const Eigen::Index ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
+      if (i != j && !unresolved[i] && !unresolved[j] && cov(ii, ii) > 0 && cov(jj, jj) > 0)
+        corr(ii, jj) = cov(ii, jj) / std::sqrt(cov(ii, ii) * cov(jj, jj));
+      else if (i != j)
+        corr(ii, jj) = NAN;
+    }
+  struct Pair {
+    std::string a, b;
+    double r;
+  };
+  std::vector<Pair> strong;
+  for (size_t i = 0; i < np; ++i)
+    for (size_t j = i + 1; j < np; ++j) {
+      const double r = corr(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+      if (std::isfinite(r) && std::fabs(r) >= 0.9) strong.push_back({pb.specs[i].name, pb.specs[j].name, r});
+    }
+  std::sort(strong.begin(), strong.end(), [](const Pair& p, const Pair& q) { return std::fabs(p.r) > std::fabs(q.r); });
+
+  if (fitted.p.T_AF > 200.0 || fitted.p.T_AS < fitted.p.T_amb - 20.0)
+    notes.push_back("fitted T_AS..T_AF = " + fixed(fitted.p.T_AS, 1) + ".." + fixed(fitted.p.T_AF, 1) +
+                    " degC is not a NiTi wire: from V and d alone only V^2 / (R G) is seen, so the "
+                    "temperature scale comes from R, d0, L0 (and h): give your wire's values in --params");
+  // T_MS is not used by the library's hysteresis (the major cooling branch starts at T_MSi of
+  // eq 10); keep it consistent with the check T_MS > T_MF.
+  if (fitted.p.T_MS != start.p.T_MS)
+    notes.push_back("T_MS set to T_MF + 1 = " + fixed(fitted.p.T_MS, 2) +
+                    " to stay > T_MF (T_MS itself is not used by the model)");
+  check_model(fitted, "fitted parameters");
+
+  // ---- full-rate traces, validation --------------------------------------------------------------
+  Trace trf, trs;
+  {
+    ReplayOptions o;
+    o.eps0 = eps0;
+    replay(fitted, log.t, log.v, o, trf);
+    Model st = start;
+    replay(st, log.t, log.v, o, trs);
+  }
+  std::vector<double> rfull(log.size()), rstart(log.size());
+  for (size_t k = 0; k < log.size(); ++k) {
+    rfull[k] = trf.y[k] - log.d[k];
+    rstart[k] = trs.y[k] - log.d[k];
+  }
+  const Stats full = stats_of(rfull), st0 = stats_of(rstart);
+
+  Validation val;
+  Trace trv, trv0;
+  RigLog vlog;
+  if (!val_path.empty()) {
+    vlog = read_rig_log(val_path, lro);
+    if (vlog.dropped) std::cerr << dropped_note(vlog) << "\n";
+    val.name = vlog.name;
+    val.rows = vlog.size();
+    ReplayOptions o;
+    o.eps0 = eps0;
+    replay(fitted, vlog.t, vlog.v, o, trv);
+    std::vector<double> r1(vlog.size()), r2(vlog.size());
+    // Tared: the sensor zero of this run from its first samples, as a user zeroes the sensor.
+    {
+      const size_t nt = std::min<size_t>(vlog.size(), 50);
+      double sum = 0;
+      for (size_t k = 0; k < nt; ++k) sum += vlog.d[k] - (trv.y[k] - fitted.fx.sensor_offset_mm);
+      val.tare_offset = sum / static_cast<double>(nt);
+    }
+    for (size_t k = 0; k < vlog.size(); ++k) {
+      r1[k] = trv.y[k] - vlog.d[k];
+      r2[k] = trv.y[k] - fitted.fx.sensor_offset_mm + val.tare_offset - vlog.d[k];
+    }
+    val.fitted_offset = stats_of(r1);
+    val.tared = stats_of(r2);
+    Model st = start;
+    replay(st, vlog.t, vlog.v, o, trv0);
+  }
+
+  // ---- outputs -----------------------------------------------------------------------------------
+  make_dirs(out_dir);
+  {
+    std::ofstream f(out_dir + "/params.json");
+    if (!f) throw Error(out_dir + "/params.json: cannot write");
+    f << model_to_json(fitted);
+  }
+  write_curves(out_dir + "/fit_curves.csv", log, trf, trs, "sma_fit: training log " + log.name);
+  if (!val_path.empty())
+    write_curves(out_dir + "/validate_curves.csv", vlog, trv, trv0, "sma_fit: validation log " + vlog.name);
+
+  // Eigen's LevenbergMarquardtSpace::Status.
+  std::string status_str;
+  switch (status) {
+    case 0: status_str = "improper input parameters"; break;
+    case 1: status_str = "relative reduction of the sum of squares below ftol"; break;
+    case 2: status_str = "relative change of the parameters below xtol"; break;
+    case 3: status_str = "sum of squares and parameters converged (ftol and xtol)"; break;
+    case 4: status_str = "residual orthogonal to the Jacobian (gtol)"; break;
+    case 5: status_str = "stopped: too many model runs (--max-evals)"; break;
+    case 6: status_str = "no further reduction of the sum of squares possible (ftol at machine precision)"; break;
+    case 7: status_str = "no further improvement of the parameters possible (xtol at machine precision)"; break;
+    case 8: status_str = "gradient at machine precision (gtol)"; break;
+    default: status_str = "status " + std::to_string(status); break;
+  }
+  const bool converged = status >= 1 && status <= 8 && status != 5;
+  const double z = 1.959964;
+
+  {
+    std::ofstream f(out_dir + "/fit.json");
+    f << "{\n  \"log\": " << json::quote(log.name) << ",\n  \"rows\": " << log.size()
+      << ",\n  \"dropped_rows\": " << log.dropped << ",\n  \"start_params\": " << json::quote(start_name)
+      << ",\n  \"residual_samples\": " << pb.rows() << ",\n  \"stride\": " << pb.stride
+      << ",\n  \"model_runs\": " << pb.runs << ",\n  \"lm_iterations\": " << lm.iter
+      << ",\n  \"lm_status\": " << json::quote(status_str) << ",\n  \"converged\": " << (converged ? "true" : "false")
+      << ",\n  \"rms_mm\": " << json::number(full.rms) << ",\n  \"max_mm\": " << json::number(full.max)
+      << ",\n  \"rms_mm_start\": " << json::number(st0.rms) << ",\n  \"max_mm_start\": " << json::number(st0.max)
+      << ",\n  \"noise_mm\": " << json::number(noise) << ",\n  \"residual_lag1\": " << json::number(fs.lag1)
+      << ",\n  \"ci_inflation\": " << json::number(inflate) << ",\n  \"condition\": " << json::number(cond)
+      << ",\n  \"parameters\": [";
+    for (size_t i = 0; i < np; ++i) {
+      f << (i ? "," : "") << "\n    {\"name\": " << json::quote(pb.specs[i].name)
+        << ", \"start\": " << json::number(startv[i]) << ", \"value\": " << json::number(value[i])
+        << ", \"sigma\": " << json::number(sigma[i]) << ", \"ci95\": " << json::number(z * sigma[i])
+        << ", \"ci95_inflated\": " << json::number(z * sigma[i] * inflate) << "}";
+    }
+    f << "\n  ],\n  \"correlation\": [";
+    for (size_t i = 0; i < np; ++i) {
+      f << (i ? "," : "") << "\n    [";
+      for (size_t j = 0; j < np; ++j)
+        f << (j ? ", " : "") << json::number(corr(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)));
+      f << "]";
+    }
+    f << "\n  ],\n  \"strong_correlations\": [";
+    for (size_t i = 0; i < strong.size(); ++i)
+      f << (i ? ", " : "") << "{\"a\": " << json::quote(strong[i].a) << ", \"b\": " << json::quote(strong[i].b)
+        << ", \"r\": " << json::number(strong[i].r) << "}";
+    f << "],\n  \"notes\": [";
+    for (size_t i = 0; i < notes.size(); ++i) f << (i ? ", " : "") << json::quote(notes[i]);
+    f << "]";
+    if (!val_path.empty())
+      f << ",\n  \"validation\": {\"log\": " << json::quote(val.name) << ", \"rows\": " << val.rows
+        << ", \"rms_mm\": " << json::number(val.fitted_offset.rms) << ", \"max_mm\": "
+        << json::number(val.fitted_offset.max) << ", \"rms_mm_tared\": " << json::number(val.tared.rms)
+        << ", \"max_mm_tared\": " << json::number(val.tared.max) << ", \"tare_offset_mm\": "
+        << json::number(val.tare_offset) << "}";
+    f << "\n}\n";
+  }
+  {
+    std::ofstream f(out_dir + "/report.md");
+    f << "# Identification report\n\n";
+    f << "Training log `" << log.name << "`: " << log.size() << " rows over " << fixed(log.duration(), 1)
+      << " s, v_V " << fixed(vlo, 3) << ".." << fixed(vhi, 3) << " V, d_mm span " << fmt(dspan)
+      << " mm, noise about " << fmt(noise) << " mm";
+    if (log.dropped) f << ", " << log.dropped << " bad rows dropped";
+    f << ".\nStart values: " << start_name << ". Method: Levenberg-Marquardt (Eigen) on the displacement "
+      << "residual of the library's simulated plant driven by the log's v_V, " << pb.rows()
+      << " residual samples (one row in " << pb.stride << "), " << pb.runs << " model runs, "
+      << lm.iter << " iterations of the full fit: " << status_str << (converged ? "." : " (NOT converged).")
+      << (stage1_note.empty() ? "" : " Before it, " + stage1_note + ".") << "\n\n";
+    f << "## Fit quality\n\n| | RMS error (mm) | max error (mm) |\n|---|---|---|\n";
+    f << "| start parameters | " << fmt(st0.rms) << " | " << fmt(st0.max) << " |\n";
+    f << "| fitted, training log | " << fmt(full.rms) << " | " << fmt(full.max) << " |\n";
+    if (!val_path.empty()) {
+      f << "| fitted, validation `" << val.name << "` | " << fmt(val.fitted_offset.rms) << " | "
+        << fmt(val.fitted_offset.max) << " |\n";
+      f << "| same, sensor tared on its first samples (offset " << fmt(val.tare_offset) << " mm) | "
+        << fmt(val.tared.rms) << " | " << fmt(val.tared.max) << " |\n";
+    }
+    f << "\n## Parameters\n\n95 % intervals from covariance = s^2 (J^T J)^-1 (s = residual RMS, J the "
+      << "Jacobian in physical units). The residual of neighbouring samples is correlated (lag-1 "
+      << "autocorrelation " << fixed(fs.lag1, 3) << "), which makes these intervals optimistic: the last "
+      << "column widens them by sqrt((1+rho)/(1-rho)) = " << fixed(inflate, 2) << ". Model error (the "
+      << "model is not the rig) is not in any of them.\n\n";
+    f << "| parameter | start | fitted | +- 95 % | +- 95 % (correlated residual) |\n|---|---|---|---|---|\n";
+    for (size_t i = 0; i < np; ++i)
+      f << "| " << pb.specs[i].name << " | " << fmt(startv[i], 6) << " | " << fmt(value[i], 6) << " | "
+        << fmt(z * sigma[i], 3) << " | " << fmt(z * sigma[i] * inflate, 3) << " |\n";
+    f << "\nCondition number of the (column-normalised) Jacobian: " << fmt(cond, 3) << ".\n";
+    f << "\n## Parameters that are hard to separate\n\n";
+    if (strong.empty()) f << "No pair with |correlation| >= 0.9.\n";
+    else {
+      f << "Pairs with |correlation| >= 0.9: this log cannot tell them apart well; a change in one is "
+        << "largely compensated by the other.\n\n| a | b | correlation |\n|---|---|---|\n";
+      for (const auto& p : strong) f << "| " << p.a << " | " << p.b << " | " << fixed(p.r, 4) << " |\n";
+    }
+    bool any_unres = false;
+    for (size_t i = 0; i < np; ++i) any_unres = any_unres || unresolved[i];
+    if (any_unres) {
+      f << "\nNot identifiable separately (a direction of J^T J with no information; only a "
+        << "combination is fixed by the log):";
+      for (size_t i = 0; i < np; ++i)
+        if (unresolved[i]) f << " " << pb.specs[i].name;
+      f << "\n";
+    }
+    if (!notes.empty()) {
+      f << "\n## Notes\n\n";
+      for (const auto& n : notes) f << "- " << n << "\n";
+    }
+    f << "\n## Files\n\n- `params.json`: the fitted model (interfaces.md format)\n- `fit.json`: the numbers of "
+      << "this report, with the full correlation matrix\n- `fit_curves.csv`";
+    if (!val_path.empty()) f << ", `validate_curves.csv`";
+    f << ": measured and fitted displacement, model temperature and fraction (for the plots)\n";
+  }
+
+  std::cout << "sma_fit: " << log.name << ": " << np << " parameters, " << pb.runs << " model runs, "
+            << status_str << "\n";
+  std::cout << "  RMS " << fmt(full.rms) << " mm, max " << fmt(full.max) << " mm (start: RMS "
+            << fmt(st0.rms) << ", max " << fmt(st0.max) << ")\n";
+  for (size_t i = 0; i < np; ++i)
+    std::cout << "  " << pb.specs[i].name << " = " << fmt(value[i], 6) << " +- " << fmt(z * sigma[i], 3)
+              << "  (start " << fmt(startv[i], 6) << ")\n";
+  for (const auto& p : strong) std::cout << "  correlated: " << p.a << " ~ " << p.b << " r=" << fixed(p.r, 3) << "\n";
+  if (!val_path.empty())
+    std::cout << "  validation " << val.name << ": RMS " << fmt(val.fitted_offset.rms) << " mm, max "
+              << fmt(val.fitted_offset.max) << " mm (tared: RMS " << fmt(val.tared.rms) << ", max "
+              << fmt(val.tared.max) << ")\n";
+  for (const auto& n : notes) std::cout << "  note: " << n << "\n";
+  std::cout << "  wrote " << out_dir << "/params.json, fit.json, report.md\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "sma_fit: error: " << e.what() << "\n";
+    return 1;
+  }
+}

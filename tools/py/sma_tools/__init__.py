@@ -1,0 +1,1 @@
+"""Python side of the SMA host tools: CLI, build of the C++ helpers, plots, serial console."""

@@ -1,0 +1,269 @@
+"""Talks to the firmware's serial console (lib/sma_model/include/sma/console.hpp).
+
+Protocol: one command per line (`pos 0.4`, `mode ffpid`, `step`, `sine`, `stop`, `tele on`, ...);
+each command gets one reply line `OK ...` or `ERR ...`. With `tele on` the board sends the header
+`t_s,v_V,d_mm,ref_mm,duty` once, then one row per tick; lines starting with '#' are comments.
+
+The protocol handling (ConsoleClient) works on any object with `write(bytes)` and `read(n)`
+(pyserial's Serial, or a fake in the tests); the I/O loop (run) adds stdin, status lines,
+recording, and sends `stop` on Ctrl-C, at the end, and when the link is lost.
+"""
+import math
+import sys
+import time
+
+TELE_HEADER = "t_s,v_V,d_mm,ref_mm,duty"
+TELE_COLUMNS = TELE_HEADER.split(",")
+
+
+class LinkLost(Exception):
+    pass
+
+
+class CommandError(Exception):
+    """The board answered ERR."""
+
+
+def classify(line):
+    """-> (kind, payload): 'reply' (ok: bool, text), 'header', 'row' (tuple of 5 floats),
+    'comment' (text), 'empty', or 'other' (text)."""
+    s = line.strip()
+    if not s:
+        return "empty", None
+    if s.startswith("OK"):
+        return "reply", (True, s)
+    if s.startswith("ERR"):
+        return "reply", (False, s)
+    if s.startswith("#"):
+        return "comment", s[1:].strip()
+    if s.replace(" ", "") == TELE_HEADER:
+        return "header", None
+    parts = s.split(",")
+    if len(parts) == 5:
+        try:
+            vals = tuple(float(p) for p in parts)
+            if all(math.isfinite(v) for v in vals):
+                return "row", vals
+        except ValueError:
+            pass
+    return "other", s
+
+
+class Recorder:
+    """Writes telemetry rows as a rig log (interfaces.md): comments, header, rows."""
+
+    def __init__(self, f, port_name):
+        self.f = f
+        self.rows = 0
+        self.skipped = 0
+        self._last_t = None
+        f.write("# rig: recorded by tools/sma console from %s at %s\n" % (port_name, time.strftime("%Y-%m-%d %H:%M:%S")))
+        f.write(TELE_HEADER + "\n")
+
+    def comment(self, text):
+        self.f.write("# %s\n" % text)
+
+    def row(self, vals):
+        # A board reset restarts the time: keep the log readable (time must increase).
+        if self._last_t is not None and not vals[0] > self._last_t:
+            self.skipped += 1
+            self.comment("time went back from %.2f to %.2f (board reset?): row skipped" % (self._last_t, vals[0]))
+            return
+        self._last_t = vals[0]
+        self.f.write("%s\n" % ",".join(_fmt(v) for v in vals))
+        self.rows += 1
+
+    def flush(self):
+        self.f.flush()
+
+
+def _fmt(v):
+    s = "%.6f" % v
+    return s.rstrip("0").rstrip(".") if "." in s else s
+
+
+class ConsoleClient:
+    def __init__(self, port, recorder=None, echo=None, clock=time.monotonic):
+        self.port = port
+        self.recorder = recorder
+        self.echo = echo or (lambda text: None)  # replies, comments, other lines
+        self.clock = clock
+        self._buf = b""
+        self.replies = []  # (ok, text) not yet consumed by send()
+        self.last_row = None
+        self.rows = 0
+        self.other = 0
+
+    # ---- input ------------------------------------------------------------------------------
+    def _read(self, n=4096):
+        try:
+            data = self.port.read(n)
+        except Exception as e:  # serial.SerialException, OSError: the link is gone
+            raise LinkLost(str(e))
+        return data or b""
+
+    def feed(self, data):
+        """Bytes in -> handled lines; returns the list of (kind, payload)."""
+        self._buf += data
+        out = []
+        while True:
+            i = min([p for p in (self._buf.find(b"\n"), self._buf.find(b"\r")) if p >= 0], default=-1)
+            if i < 0:
+                break
+            raw, self._buf = self._buf[:i], self._buf[i + 1:]
+            line = raw.decode("ascii", errors="replace")
+            kind, payload = classify(line)
+            if kind != "empty":
+                self._handle(kind, payload)
+                out.append((kind, payload))
+        if len(self._buf) > 4096:  # no line end for a long time: garbage
+            self._buf = b""
+        return out
+
+    def _handle(self, kind, payload):
+        if kind == "reply":
+            self.replies.append(payload)
+            self.echo(payload[1])
+        elif kind == "row":
+            self.last_row = payload
+            self.rows += 1
+            if self.recorder:
+                self.recorder.row(payload)
+        elif kind == "comment":
+            self.echo("# " + payload)
+            if self.recorder:
+                self.recorder.comment(payload)
+        elif kind == "other":
+            self.other += 1
+            self.echo(payload)
+
+    def poll(self):
+        """Reads what is there (the port's timeout bounds the wait); returns handled lines."""
+        return self.feed(self._read())
+
+    # ---- output -----------------------------------------------------------------------------
+    def write_line(self, cmd):
+        try:
+            self.port.write((cmd.strip() + "\n").encode("ascii"))
+            flush = getattr(self.port, "flush", None)
+            if flush:
+                flush()
+        except Exception as e:
+            raise LinkLost(str(e))
+
+    def send(self, cmd, timeout=2.0, check=True):
+        """Sends a command and waits for its OK/ERR reply; returns the reply text."""
+        self.replies.clear()
+        self.write_line(cmd)
+        end = self.clock() + timeout
+        while not self.replies:
+            if self.clock() > end:
+                raise TimeoutError("no reply to '%s' within %.1f s" % (cmd, timeout))
+            self.poll()
+        ok, text = self.replies.pop(0)
+        if check and not ok:
+            raise CommandError(text)
+        return text
+
+    def stop(self):
+        """Heater off: best effort (the link may be gone)."""
+        try:
+            return self.send("stop", timeout=1.0, check=False)
+        except (LinkLost, TimeoutError):
+            return None
+
+    def status_line(self):
+        r = self.last_row
+        if r is None:
+            return "no telemetry (send 'tele on')"
+        return "t=%8.2f s  d=%8.4f mm  ref=%8.4f mm  err=%+8.4f mm  V=%6.3f  duty=%.4f" % (
+            r[0], r[2], r[3], r[3] - r[2], r[1], r[4])
+
+
+def run(args, port=None, stdin=None, out=sys.stdout, err=sys.stderr):
+    """The `sma console` command. Returns the exit code: 0 ok, 1 ERR reply to a --send command,
+    2 port cannot be opened, 3 link lost, 4 no reply, 130 interrupted (after `stop` was sent)."""
+    import queue
+    import threading
+
+    if port is None:
+        import serial
+
+        try:
+            port = serial.serial_for_url(args.port, baudrate=args.baud, timeout=0.05)
+        except (serial.SerialException, ValueError) as e:
+            err.write("sma console: cannot open %s: %s\n" % (args.port, e))
+            return 2
+    rec_file = None
+    recorder = None
+    if args.record:
+        rec_file = open(args.record, "w")
+        recorder = Recorder(rec_file, args.port)
+    echo = (lambda text: out.write(text + "\n")) if not args.quiet else None
+    c = ConsoleClient(port, recorder=recorder, echo=echo)
+    lines = queue.Queue()
+    if args.interactive:
+        src = stdin or sys.stdin
+
+        def reader():
+            for line in src:
+                lines.put(line)
+            lines.put(None)
+
+        threading.Thread(target=reader, daemon=True).start()
+    code = 0
+    try:
+        for cmd in args.send or []:
+            try:
+                c.send(cmd, timeout=args.timeout)
+            except CommandError as e:
+                err.write("sma console: '%s' refused: %s\n" % (cmd, e))
+                code = 1
+                break
+        start = time.monotonic()
+        last_status = 0.0
+        while code == 0:
+            now = time.monotonic()
+            if args.duration is not None and now - start >= args.duration:
+                break
+            if not args.interactive and args.duration is None:
+                break
+            while not lines.empty():
+                line = lines.get()
+                if line is None:  # stdin closed
+                    args.interactive = False
+                    if args.duration is None:
+                        args.duration = 0
+                    break
+                if line.strip():
+                    c.write_line(line)
+            c.poll()
+            if args.status and c.last_row is not None and now - last_status >= args.status:
+                err.write("\r" + c.status_line())
+                err.flush()
+                last_status = now
+    except KeyboardInterrupt:
+        err.write("\nsma console: interrupted, sending stop\n")
+        code = 130
+    except LinkLost as e:
+        err.write("\nsma console: link lost (%s): heater state unknown, trying to send stop\n" % e)
+        code = 3
+    except TimeoutError as e:
+        err.write("\nsma console: %s: is this the board's port, at %d baud?\n" % (e, args.baud))
+        code = 4
+    finally:
+        if not args.no_stop or code != 0:
+            reply = c.stop()
+            if reply is not None and not args.quiet:
+                out.write(reply + "\n")
+        if recorder:
+            recorder.flush()
+            rec_file.close()
+            err.write("sma console: recorded %d telemetry rows to %s\n" % (recorder.rows, args.record))
+        close = getattr(port, "close", None)
+        if close:
+            try:
+                close()
+            except Exception:
+                pass
+    return code

@@ -1,0 +1,87 @@
+"""Bad input everywhere: a clear message naming file, line and problem, and a non-zero exit."""
+import json
+
+import pytest
+
+from conftest import run_sma
+
+
+def _log(path, rows, header="t_s,v_V,d_mm"):
+    path.write_text("# test log\n" + header + "\n" + "".join(r + "\n" for r in rows))
+    return path
+
+
+def _ramp(n=400, dt=0.1):
+    rows = []
+    for k in range(n):
+        t = k * dt
+        v = 1.8 * min(1.0, t / 20.0)
+        rows.append("%.2f,%.4f,%.4f" % (t, v, 0.9 * min(1.0, max(0.0, (t - 8) / 10))))
+    return rows
+
+
+def test_malformed_rows_are_refused_with_line_numbers(binaries, tmp_path):
+    rows = _ramp()
+    rows[10] = "1.00,abc,0.1"
+    rows[20] = "2.00,1.0"
+    rows[30] = "0.5,1.0,0.1"
+    rows[40] = "4.00,nan,0.1"
+    rows[50] = "5.00,1.0,0.1,7"
+    log = _log(tmp_path / "bad.csv", rows)
+    r = run_sma("fit", log, "--out", tmp_path / "o", check=False)
+    assert r.returncode != 0
+    assert "refused: 5 bad rows of 400" in r.stderr
+    assert "bad.csv:13: column 'v_V': 'abc' is not a finite number" in r.stderr
+    assert "bad.csv:23: 2 fields, the header has 3" in r.stderr
+    assert "bad.csv:33: time" in r.stderr
+    assert "bad.csv:43" in r.stderr
+
+
+def test_a_few_bad_rows_are_dropped_and_counted(binaries, tmp_path):
+    rows = _ramp()
+    rows[10] = "1.00,abc,0.1"
+    log = _log(tmp_path / "some.csv", rows)
+    out = tmp_path / "p"
+    r = run_sma("plot", log, "--out", out, check=False)
+    assert r.returncode == 0, r.stderr
+    assert "some.csv: dropped 1 bad rows of 400" in r.stderr
+    assert "some.csv:13" in r.stderr
+
+
+def test_missing_column(binaries, tmp_path):
+    log = _log(tmp_path / "nocol.csv", ["0,1,2"], header="t_s,v_V,position")
+    r = run_sma("plot", log, "--out", tmp_path / "p", check=False)
+    assert r.returncode != 0
+    assert "nocol.csv:2: header has no column 'd_mm'" in r.stderr
+
+
+def test_unknown_and_nonphysical_params(binaries, tmp_path):
+    log = _log(tmp_path / "ok.csv", _ramp())
+    bad = tmp_path / "bad.json"
+    bad.write_text('{\n  "h": 150,\n  "T_ASS": 50\n}\n')
+    r = run_sma("fit", log, "--params", bad, "--out", tmp_path / "o", check=False)
+    assert r.returncode != 0 and "bad.json:3: unknown key 'T_ASS'" in r.stderr
+    neg = tmp_path / "neg.json"
+    neg.write_text(json.dumps({"h": -3}))
+    r = run_sma("fit", log, "--params", neg, "--out", tmp_path / "o", check=False)
+    assert r.returncode != 0 and "neg.json: h must be > 0" in r.stderr
+    r = run_sma("sim", "--volt", "const:1", "--effect", "sensor_delay.delay=1", check=False)
+    assert r.returncode != 0 and "unknown parameter 'delay'" in r.stderr
+
+
+def test_log_too_short_or_without_excitation(binaries, tmp_path):
+    short = _log(tmp_path / "short.csv", _ramp(50))
+    r = run_sma("fit", short, "--out", tmp_path / "o", check=False)
+    assert r.returncode != 0 and "short.csv: too short to identify anything" in r.stderr
+    flat = _log(tmp_path / "flat.csv", ["%.1f,1.2,0.01" % (0.1 * k) for k in range(1000)])
+    r = run_sma("fit", flat, "--out", tmp_path / "o", check=False)
+    assert r.returncode != 0 and "flat.csv: no excitation: v_V is constant" in r.stderr
+    still = _log(tmp_path / "still.csv", ["%.1f,%.3f,0.01" % (0.1 * k, 0.001 * k) for k in range(1000)])
+    r = run_sma("fit", still, "--out", tmp_path / "o", check=False)
+    assert r.returncode != 0 and "still.csv: no excitation: d_mm only spans" in r.stderr
+
+
+def test_help_of_every_command(binaries):
+    for cmd in ("sim", "fit", "plot", "console", "build"):
+        r = run_sma(cmd, "--help")
+        assert "usage" in r.stdout.lower()

@@ -1,0 +1,50 @@
+"""`sma sim`: the training signal is the paper's (slopes +-5.88e-3 V/s, decaying peaks), effects
+and noise reach the log, and the log is a rig log with a metadata header."""
+import numpy as np
+
+from conftest import run_sma
+from sma_tools.plot import load_csv
+
+
+def test_training_signal_shape(binaries, tmp_path):
+    log = tmp_path / "train.csv"
+    run_sma("sim", "--volt", "train", "--dt", "0.5", "--out", log)
+    d, comments = load_csv(str(log))
+    assert any("training signal" in c and "0.00588" in c for c in comments)
+    t, v = d["t_s"], d["v_V"]
+    slopes = np.diff(v) / np.diff(t)
+    ramp = np.abs(slopes) > 1e-4
+    ramp &= np.abs(slopes) < 0.1  # not the probe's steps
+    # samples that straddle a peak or the floor see a partial slope; all others the paper's
+    on = np.isclose(np.abs(slopes[ramp]), 5.88e-3, rtol=1e-6)
+    assert on.mean() > 0.99
+    # peaks: local maxima of the ramps decay after the first
+    peaks = [v[i] for i in range(1, len(v) - 1) if v[i] > v[i - 1] and v[i] >= v[i + 1] and v[i] > 1.0]
+    ramps, probe = peaks[:-1], peaks[-1]
+    assert abs(ramps[0] - 2.0) < 1e-2 and len(ramps) == 12
+    assert all(a > b for a, b in zip(ramps[:-1], ramps[1:]))
+    assert probe == 1.6
+    # ends with the probe: 1.6 V held, then 0
+    assert v.max() <= 2.0 + 1e-9 and v[-1] == 0.0
+
+
+def test_effect_and_noise_reach_the_log(binaries, tmp_path):
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    run_sma("sim", "--volt", "const:0", "--duration", "2", "--out", a)
+    run_sma("sim", "--volt", "const:0", "--duration", "2", "--effect", "sensor_calibration.offset_mm=0.5",
+            "--noise", "0.01", "--seed", "3", "--out", b)
+    da, db = load_csv(str(a))[0], load_csv(str(b))[0]
+    assert np.all(da["d_mm"] == 0.0)
+    assert abs(db["d_mm"].mean() - 0.5) < 0.005 and 0.005 < db["d_mm"].std() < 0.015
+    text = b.read_text()
+    assert '"sensor_calibration": {"offset_mm": 0.5}' in text.replace(":0.5", ": 0.5") or "offset_mm" in text
+
+
+def test_closed_loop_tracks(binaries, tmp_path):
+    log = tmp_path / "ms.csv"
+    run_sma("sim", "--ref", "multistep", "--mode", "ffpid", "--out", log)
+    d, comments = load_csv(str(log))
+    assert any("closed loop" in c for c in comments)
+    assert sorted(set(np.round(d["ref_mm"], 6))) == [0.2, 0.3, 0.4, 0.5, 0.6, 0.8]
+    late = (d["t_s"] % 25 > 20) & (d["t_s"] < 75)  # end of the first three steps
+    assert np.abs(d["ref_mm"][late] - d["d_mm"][late]).mean() < 0.02

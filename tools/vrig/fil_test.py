@@ -1,0 +1,345 @@
+#!/usr/bin/env python3
+"""Firmware-in-the-loop tests: the firmware ELF, unchanged, on the virtual rig (vrig = simavr +
+the library's simulated plant). Standard library only.
+
+    fil_test.py --vrig BUILD/tools/vrig/vrig --elf BUILD/firmware/sma_firmware.elf --out DIR TEST
+
+Tests (each writes DIR/<test>/... and prints a one-line summary; exit status 0 = pass):
+  tracking_step   paper's multi-step in ffpid mode, rig-like noise: the ELF tracks like the native
+                  simulation of the same console + controller (vrig --native)
+  tracking_sine   paper's sine, same comparison, plus the max error while heating
+  bad_lines       every class of bad console line answers ERR and changes nothing
+  sensor_loss     ADC0 driven out of the calibrated range: heater off within one tick
+  flood           random input at full baud rate: the 100 Hz tick keeps its rate, the console
+                  still answers afterwards
+  watchdog_boot   started as after a watchdog reset (MCUSR.WDRF): fault latched, heating
+                  refused until stop
+
+Bounds (why these numbers):
+  * ELF vs native: same controller code and plant; they differ by the ADC (10 bit, the average of
+    ~96 conversions over the tick vs 10 samples of 1 ms), float rounding and the exact instant the
+    PWM changes (up to ~2 ms after the tick in the ELF). 5 um on an RMS of ~75-95 um and 10 um on
+    a max error are several times the differences measured (about 1 um).
+  * Max |error| while heating on the sine after the first period <= 0.036 mm: the rig-like anchor
+    of model.md for the inverse + PID (this controller gets ~0.010 mm).
+  * Heater off within one tick: the fault is injected at a 1 ms plant step; the firmware checks
+    every ADC sample of the tick's window, so the first control section that ends after the fault
+    must already have written duty 0 (ticks_heating_after_fault == 0, delay <= 10 ms + the
+    control section).
+  * Stack: the deepest SP seen by the virtual rig (every push and frame) stays >= 32 bytes above
+    _end (avr-nm), room for one more interrupt frame.
+  * Flood: tick rate within 0.5 % of 100 Hz inside the flood window and no tick interval longer
+    than 12 ms (a console line is handled between ticks; handling one takes < 1.5 ms).
+"""
+import argparse
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+
+
+def run_vrig(args, name, script_lines, duration, extra=(), native=False):
+    d = os.path.join(args.out, name)
+    os.makedirs(d, exist_ok=True)
+    tag = "native" if native else "elf"
+    script = os.path.join(d, f"script_{tag}.txt")
+    with open(script, "w") as f:
+        f.write("\n".join(script_lines) + "\n")
+    log = os.path.join(d, f"log_{tag}.csv")
+    cyc = os.path.join(d, f"cycles_{tag}.json")
+    cmd = [args.vrig, "-" if native else args.elf, "--script", script, "--duration", str(duration),
+           "--log", log, "--cycles-json", cyc, "--stamp"] + list(extra)
+    if native:
+        cmd.insert(2, "--native")
+    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                       errors="replace", timeout=1800)
+    with open(os.path.join(d, f"stdout_{tag}.txt"), "w") as f:
+        f.write(p.stdout)
+    if p.returncode != 0:
+        raise SystemExit(f"FAIL {name}: vrig exited {p.returncode}: {p.stderr[-500:]}")
+    lines = []
+    for ln in p.stdout.splitlines():
+        if ln.startswith("["):
+            t, _, text = ln[1:].partition("] ")
+            lines.append((float(t), text))
+    with open(cyc) as f:
+        stats = json.load(f)
+    return lines, read_log(log), stats
+
+
+def read_log(path):
+    rows = []
+    with open(path) as f:
+        for ln in f:
+            if ln.startswith("#") or ln.startswith("t_s"):
+                continue
+            p = ln.strip().split(",")
+            if len(p) == 5:
+                rows.append(tuple(float(x) for x in p))
+    return rows
+
+
+def replies(lines):
+    return [(t, s) for t, s in lines if s.startswith("OK") or s.startswith("ERR")]
+
+
+def check(cond, msg, failures):
+    if not cond:
+        failures.append(msg)
+
+
+def rms(xs):
+    return math.sqrt(sum(x * x for x in xs) / len(xs)) if xs else float("nan")
+
+
+def tracking_metrics(rows, t_from):
+    t0 = rows[0][0]
+    e = [(r[0] - t0, r[2] - r[3], r[3]) for r in rows]
+    after = [x for x in e if x[0] >= t_from]
+    heat = [after[i][1] for i in range(1, len(after)) if after[i][2] > after[i - 1][2]]
+    return {
+        "rms_mm": rms([x[1] for x in after]),
+        "max_abs_mm": max(abs(x[1]) for x in after),
+        "max_abs_heating_mm": max(abs(x) for x in heat) if heat else 0.0,
+        "samples": len(after),
+    }
+
+
+def ram_end(elf):
+    """Address of _end (end of .data/.bss/.noinit) from avr-nm, or None."""
+    nm = shutil.which("avr-nm")
+    if not nm or not elf or elf == "-":
+        return None
+    out = subprocess.run([nm, elf], stdout=subprocess.PIPE, text=True).stdout
+    for ln in out.splitlines():
+        p = ln.split()
+        if len(p) == 3 and p[2] == "_end":
+            return int(p[0], 16) & 0xFFFF
+    return None
+
+
+ELF = None
+
+
+def common_checks(stats, failures):
+    check(abs(stats["tick_rate_hz"] - 100.0) < 0.05, f"tick rate {stats['tick_rate_hz']} Hz", failures)
+    if "wdtcsr" in stats:
+        # WDE set, prescaler WDP = 0b0100: 250 ms (wdt_enable(WDTO_250MS)).
+        check(stats["wdtcsr"] & 0x08 and stats["wdtcsr"] & 0x27 == 0x04, f"watchdog not at 250 ms: WDTCSR={stats['wdtcsr']:#x}", failures)
+    end = ram_end(ELF)
+    if end is not None and stats.get("sp_min", 0xFFFF) != 0xFFFF:
+        # The deepest stack seen (pushes included) must stay clear of the static data, with room
+        # for one more interrupt frame (~32 bytes) on top of it.
+        stats["stack_margin_bytes"] = stats["sp_min"] - end
+        check(stats["sp_min"] - end >= 32, f"stack margin {stats['sp_min'] - end} B (sp_min {stats['sp_min']:#x}, _end {end:#x})", failures)
+    check(stats["tick_cycles_max"] < stats["cycles_per_tick_budget"],
+          f"tick takes {stats['tick_cycles_max']} cycles > budget", failures)
+
+
+def t_tracking(args, which):
+    name = f"tracking_{which}"
+    cmd = "step" if which == "step" else "sine"
+    duration = 150 if which == "step" else 100
+    t_from = 25.0 if which == "step" else 50.0  # after the first step / the first period
+    script = ["0.0 tele on", f"0.05 {cmd}"]
+    extra = ["--noise-mm", "0.002", "--seed", "7"]
+    _, rows_e, st_e = run_vrig(args, name, script, duration, extra)
+    _, rows_n, _ = run_vrig(args, name, script, duration, extra, native=True)
+    me, mn = tracking_metrics(rows_e, t_from), tracking_metrics(rows_n, t_from)
+    failures = []
+    common_checks(st_e, failures)
+    check(len(rows_e) >= duration * 100 - 5, f"only {len(rows_e)} telemetry rows", failures)
+    check(me["rms_mm"] <= mn["rms_mm"] + 0.005, f"RMS {me['rms_mm']:.4f} vs native {mn['rms_mm']:.4f}", failures)
+    check(me["max_abs_mm"] <= mn["max_abs_mm"] + 0.010,
+          f"max {me['max_abs_mm']:.4f} vs native {mn['max_abs_mm']:.4f}", failures)
+    if which == "sine":
+        check(me["max_abs_heating_mm"] <= 0.036, f"max heating error {me['max_abs_heating_mm']:.4f} > 0.036", failures)
+        check(me["max_abs_heating_mm"] <= mn["max_abs_heating_mm"] + 0.010, "heating error vs native", failures)
+    else:
+        # Settled error at the end of each 25 s step (last 5 s), ELF vs native.
+        for k in range(6):
+            def seg(rows):
+                t0 = rows[0][0]
+                return max(abs(r[2] - r[3]) for r in rows if 25 * k + 20 < r[0] - t0 < 25 * k + 25)
+            se, sn = seg(rows_e), seg(rows_n)
+            me[f"step{k}_end_max_mm"] = se
+            check(se <= sn + 0.010, f"step {k}: settled error {se:.4f} vs native {sn:.4f}", failures)
+    summary = {"elf": me, "native": mn, "cycles": st_e}
+    return name, summary, failures
+
+
+def t_bad_lines(args):
+    name = "bad_lines"
+    bad = [
+        "frobnicate",            # unknown command
+        "pos",                   # missing number
+        "pos abc",               # not a number
+        "pos 0.4x",              # trailing garbage
+        "pos nan",               # nan
+        "pos inf",               # inf
+        "pos 1e-1",              # exponent not accepted
+        "pos 5",                 # out of range
+        "pos -0.1",              # out of range
+        "pos 0.4 0.5",           # extra argument
+        "volt 3",                # out of range
+        "volt",                  # missing
+        "gains 1 2",             # missing third
+        "gains 1 2 -3",          # negative
+        "tlim 500",              # out of range
+        "tlim 20",               # out of range
+        "mode warp",             # bad mode
+        "mode",                  # missing mode
+        "tele maybe",            # bad on/off
+        "traj",                  # missing
+        "traj 1",                # missing mm
+        "traj -1 0.2",           # negative time
+        "traj 1 2",              # mm out of range
+        "traj run",              # no points
+        "step now",              # extra text
+        "x" * 80,                # too long
+        "pos 0.\\x01",           # control character -> ERR (not a number)
+        "pos \\xff0.3",          # non-ASCII byte
+        "POS 0.4",               # commands are lower case
+    ]
+    script = ["0.05 status"] + [f"{0.1 + 0.05 * i:.2f} {b}" for i, b in enumerate(bad)]
+    t_end = 0.1 + 0.05 * len(bad)
+    script.append(f"{t_end + 0.1:.2f} status")
+    # Then a valid setpoint, the same bad lines again while running, and a status.
+    script.append(f"{t_end + 0.2:.2f} pos 0.3")
+    t2 = t_end + 0.3
+    script += [f"{t2 + 0.05 * i:.2f} {b}" for i, b in enumerate(bad) if b != "traj run"]
+    t3 = t2 + 0.05 * len(bad) + 0.1
+    script.append(f"{t3:.2f} status")
+    lines, rows, st = run_vrig(args, name, script, t3 + 0.5)
+    rep = replies(lines)
+    failures = []
+    n_err = sum(1 for _, s in rep if s.startswith("ERR"))
+    expect_err = len(bad) + len(bad) - 1
+    check(n_err == expect_err, f"{n_err} ERR replies, expected {expect_err}", failures)
+    stat = [s for _, s in rep if s.startswith("OK status")]
+    check(len(stat) == 3, f"{len(stat)} status replies", failures)
+    if len(stat) == 3:
+        strip = lambda s: " ".join(w for w in s.split() if not w.startswith(("t=", "d=", "V=", "T=")))
+        check(strip(stat[0]) == strip(stat[1]), f"state changed by bad lines: {stat[0]!r} -> {stat[1]!r}", failures)
+        check(" ffpid pos " in stat[2] and "r=0.3000" in stat[2] and "tlim=110" in stat[2],
+              f"state after bad lines while running: {stat[2]!r}", failures)
+    check(not rows, "telemetry started by a bad line", failures)
+    check(any("line too long" in s for _, s in rep), "no 'line too long' error", failures)
+    check(any("unknown command" in s for _, s in rep), "no 'unknown command' error", failures)
+    common_checks(st, failures)
+    return name, {"replies": rep, "cycles": st}, failures
+
+
+def t_sensor_loss(args):
+    name = "sensor_loss"
+    t_fault = 5.0  # on a slow ramp: the wire is being heated
+    script = ["0.0 tele on", "0.05 traj 0 0", "0.1 traj 20 0.6", "0.15 traj run", f"{t_fault + 0.5} status", f"{t_fault + 0.6} pos 0.4",
+              f"{t_fault + 0.7} stop", f"{t_fault + 0.8} status"]
+    lines, rows, st = run_vrig(args, name, script, t_fault + 1.0, ["--sensor-fault", f"{t_fault}:5000"])
+    failures = []
+    delay = st["heater_off_s"] - t_fault
+    check(st["heater_off_s"] >= t_fault, "heater never switched off", failures)
+    check(st["ticks_heating_after_fault"] == 0, f"{st['ticks_heating_after_fault']} ticks heated after the fault", failures)
+    check(delay <= 0.010 + st["control_cycles_max"] / 16e6, f"heater off {delay * 1e3:.2f} ms after the fault", failures)
+    # Rows stamped with the simulated time at which they were received (t_s counts from the
+    # first tick, ~10 ms after power-on); a row leaves up to ~3 ms after its tick.
+    rows = []
+    for t, text in lines:
+        p = text.split(",")
+        if len(p) == 5 and not text.startswith("t_s"):
+            rows.append((t,) + tuple(float(x) for x in p[1:]))
+    before = [r for r in rows if r[0] < t_fault - 0.1]
+    check(before and before[-1][1] > 0.0, "was not heating before the fault", failures)
+    check(all(r[1] > 0.0 for r in rows if t_fault - 0.5 <= r[0] < t_fault), "heater off before the fault", failures)
+    after = [r for r in rows if r[0] >= t_fault + 0.015]
+    check(after and all(r[1] == 0.0 and r[4] == 0.0 for r in after), "heating after the fault", failures)
+    rep = [s for _, s in replies(lines)]
+    check(any(s.startswith("OK status") and "fault=sensor" in s for s in rep), "status does not show fault=sensor", failures)
+    check(any(s.startswith("ERR fault sensor") for s in rep), "pos not refused while faulted", failures)
+    common_checks(st, failures)
+    return name, {"heater_off_delay_ms": delay * 1e3, "cycles": st}, failures
+
+
+def t_flood(args):
+    name = "flood"
+    # "6.4" alone sends an empty line: it ends the flood's last partial line (as a terminal would).
+    script = ["0.0 tele on", "0.05 pos 0.4", "6.4", "6.5 status", "6.6 tele off"]
+    lines, rows, st = run_vrig(args, name, script, 7.0, ["--flood", "2:6", "--noise-mm", "0.002"])
+    failures = []
+    check(abs(st["flood_tick_rate_hz"] - 100.0) < 0.5, f"tick rate in flood {st['flood_tick_rate_hz']:.3f} Hz", failures)
+    check(st["flood_tick_interval_max_us"] < 12000, f"tick interval {st['flood_tick_interval_max_us']:.0f} us in flood", failures)
+    check(st["uart_bytes_in"] > 4 * 10000, f"only {st['uart_bytes_in']} bytes sent", failures)
+    rep = [s for t, s in replies(lines) if t > 6.4]
+    check(any(s.startswith("OK status") and "ffpid" in s and "fault=none" in s for s in rep),
+          f"no sane status after the flood: {rep}", failures)
+    # Telemetry rows kept coming during the flood (each tick sends one row unless the TX buffer
+    # is full of replies: allow 10 % drops).
+    in_flood = [r for r in rows if 2.0 <= r[0] < 6.0]
+    check(len(in_flood) >= 360, f"{len(in_flood)} telemetry rows in 4 s of flood", failures)
+    common_checks(st, failures)
+    return name, {"rows_in_flood": len(in_flood), "cycles": st}, failures
+
+
+def t_watchdog_boot(args):
+    name = "watchdog_boot"
+    script = ["0.05 status", "0.1 pos 0.3", "0.2 stop", "0.3 pos 0.3", "0.4 tele on", "1.5 status"]
+    lines, rows, st = run_vrig(args, name, script, 2.0, ["--wdrf"])
+    failures = []
+    texts = [s for _, s in lines]
+    check(any(s.startswith("# fault watchdog") for s in texts), "no watchdog banner", failures)
+    rep = [s for _, s in replies(lines)]
+    check(len(rep) == 6, f"{len(rep)} replies: {rep}", failures)
+    if len(rep) == 6:
+        check("fault=watchdog" in rep[0] and " off " in rep[0], f"status at boot: {rep[0]!r}", failures)
+        check(rep[1] == "ERR fault watchdog: send stop", f"pos while faulted: {rep[1]!r}", failures)
+        check(rep[2] == "OK stop", rep[2], failures)
+        check(rep[3].startswith("OK pos 0.3000"), rep[3], failures)
+        check("fault=none" in rep[5] and " ffpid " in rep[5], f"status after stop: {rep[5]!r}", failures)
+    check(rows and max(r[1] for r in rows) > 0.0, "no heating after stop + pos", failures)
+    common_checks(st, failures)
+    return name, {"replies": rep, "cycles": st}, failures
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--vrig", required=True)
+    ap.add_argument("--elf", required=True)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("test", choices=["tracking_step", "tracking_sine", "bad_lines", "sensor_loss", "flood",
+                                     "watchdog_boot"])
+    args = ap.parse_args()
+    global ELF
+    ELF = args.elf
+    os.makedirs(args.out, exist_ok=True)
+    if args.test == "tracking_step":
+        name, summary, failures = t_tracking(args, "step")
+    elif args.test == "tracking_sine":
+        name, summary, failures = t_tracking(args, "sine")
+    elif args.test == "bad_lines":
+        name, summary, failures = t_bad_lines(args)
+    elif args.test == "sensor_loss":
+        name, summary, failures = t_sensor_loss(args)
+    elif args.test == "watchdog_boot":
+        name, summary, failures = t_watchdog_boot(args)
+    else:
+        name, summary, failures = t_flood(args)
+    summary["failures"] = failures
+    with open(os.path.join(args.out, name, "summary.json"), "w") as f:
+        json.dump(summary, f, indent=2)
+    short = {k: v for k, v in summary.items() if k not in ("cycles", "replies")}
+    print(json.dumps(short, indent=None)[:2000])
+    c = summary.get("cycles", {})
+    print(f"cycles: control max {c.get('control_cycles_max')} mean {c.get('control_cycles_mean')}, "
+          f"tick max {c.get('tick_cycles_max')}, jitter {c.get('tick_jitter_us')} us, "
+          f"stack margin {c.get('stack_margin_bytes')} B")
+    if failures:
+        print(f"FAIL {name}: " + "; ".join(failures))
+        return 1
+    print(f"PASS {name}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,761 @@
+// vrig: the virtual rig. Runs the firmware ELF, unchanged, on simavr's cycle-accurate ATmega328P
+// at 16 MHz and closes the loop through the library's simulated plant (sma::Plant):
+//
+//   every 1 ms of simulated time:
+//     OCR1A / ICR1 / TCCR1A (data space) -> duty -> V = Vs sqrt(duty) -> plant.step(V, 1 ms)
+//     plant.measure() (mm) -> rig_config.h calibration, inverted -> millivolts on ADC0
+//   UART0 <-> a script of timed commands (--script), stdin (default), or a pseudo-terminal (--pty)
+//   GPIOR0 markers written by the firmware -> exact cycles of the control section, tick jitter
+//
+// --native runs the same console, controller and safety latch natively (float) instead of the
+// ELF, with the same plant and the same script: the reference the FIL tests compare against.
+//
+// Usage: vrig FIRMWARE.elf [options]   (see usage() below)
+#include <errno.h>
+#include <math.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <string>
+#include <vector>
+
+#include "rig_config.h"
+#include "sma/console.hpp"
+#include "sma/controller.hpp"
+#include "sma/plant.hpp"
+#include "sma/reference.hpp"
+#include "sma/safety.hpp"
+
+extern "C" {
+#include "avr_adc.h"
+#include "avr_uart.h"
+#include "sim_avr.h"
+#include "sim_cycle_timers.h"
+#include "sim_elf.h"
+#include "sim_io.h"
+#include "sim_irq.h"
+}
+#ifdef VRIG_HAVE_PTY
+extern "C" {
+#include "parts/uart_pty.h"
+}
+#endif
+
+namespace {
+
+constexpr uint32_t kFreq = 16000000u;
+constexpr uint32_t kPlantCycles = kFreq / 1000u;  // plant step: 1 ms
+constexpr double kPlantDt = 1e-3;
+// ATmega328P data-space addresses.
+constexpr uint16_t kGPIOR0 = 0x3E;
+constexpr uint16_t kTCCR1A = 0x80;
+constexpr uint16_t kICR1L = 0x86;
+constexpr uint16_t kOCR1AL = 0x88;
+
+struct ScriptLine {
+  double t;
+  std::string text;
+};
+
+struct Options {
+  std::string elf;
+  std::string script, log, cycles_json;
+  double duration = 10.0;
+  bool pty = false, native = false, quiet = false, stamp = false, realtime = false;
+  bool use_stdin = true;
+  double noise_mm = 0.0;
+  uint64_t seed = 1;
+  sma::Effects fx;
+  double fault_at = -1.0, fault_mv = 5000.0;  // sensor loss injection
+  double flood_from = -1.0, flood_to = -1.0;  // input flood
+  bool wdrf = false;                          // start as after a watchdog reset
+};
+
+void usage() {
+  fprintf(stderr,
+          "usage: vrig FIRMWARE.elf [options]\n"
+          "  --duration S        simulated seconds (default 10)\n"
+          "  --script FILE       timed commands, lines '<t_s> <command>' ('#' comments)\n"
+          "  --pty               expose UART0 on a pseudo-terminal (/tmp/simavr-uart0); implies --realtime\n"
+          "  --realtime          do not run faster than wall-clock time\n"
+          "  (neither --script nor --pty: stdin lines are sent as they come)\n"
+          "  --log FILE          write the telemetry (header + rows) received to a CSV rig log\n"
+          "  --cycles-json FILE  cycles of the control section (GPIOR0 markers), tick rate and jitter\n"
+          "  --noise-mm X        RMS displacement noise of the simulated sensor (mm)\n"
+          "  --seed N            noise seed\n"
+          "  --effect NAME=V     plant effect: sensor_delay_s, sensor_lag_s, sensor_gain,\n"
+          "                      sensor_offset_mm, ambient_offset_K, convection_beta_per_K,\n"
+          "                      resistance_k, latent_heat_J\n"
+          "  --sensor-fault T[:MV]  from T s on, drive ADC0 to MV millivolts (default 5000)\n"
+          "  --flood T1:T2       flood UART input with random bytes between T1 and T2 s\n"
+          "  --wdrf              start as after a watchdog reset (MCUSR.WDRF set)\n"
+          "  --native            run the console+controller natively instead of the ELF\n"
+          "                      (FIRMWARE.elf is then ignored, pass '-')\n"
+          "  --stamp             prefix each printed line with the simulated time\n"
+          "  --quiet             do not print the firmware's lines\n");
+}
+
+bool set_effect(sma::Effects& fx, const char* arg) {
+  const char* eq = strchr(arg, '=');
+  if (!eq) return false;
+  const std::string name(arg, eq);
+  char* end = nullptr;
+  const double v = strtod(eq + 1, &end);
+  if (end == eq + 1 || *end != 0 || !std::isfinite(v)) return false;
+  if (name == "sensor_delay_s") fx.sensor_delay_s = v;
+  else if (name == "sensor_lag_s") fx.sensor_lag_s = v;
+  else if (name == "sensor_gain") fx.sensor_gain = v;
+  else if (name == "sensor_offset_mm") fx.sensor_offset_mm = v;
+  else if (name == "ambient_offset_K") fx.ambient_offset_K = v;
+  else if (name == "convection_beta_per_K") fx.convection_beta_per_K = v;
+  else if (name == "resistance_k") fx.resistance_k = v;
+  else if (name == "latent_heat_J") fx.latent_heat_J = v;
+  else return false;
+  return true;
+}
+
+bool read_script(const std::string& path, std::vector<ScriptLine>& out) {
+  FILE* f = fopen(path.c_str(), "r");
+  if (!f) {
+    fprintf(stderr, "vrig: cannot open script %s: %s\n", path.c_str(), strerror(errno));
+    return false;
+  }
+  char buf[512];
+  int lineno = 0;
+  double prev = -1e30;
+  while (fgets(buf, sizeof buf, f)) {
+    ++lineno;
+    size_t n = strlen(buf);
+    while (n && (buf[n - 1] == '\n' || buf[n - 1] == '\r')) buf[--n] = 0;
+    const char* p = buf;
+    while (*p == ' ' || *p == '\t') ++p;
+    if (*p == 0 || *p == '#') continue;
+    char* end = nullptr;
+    const double t = strtod(p, &end);
+    if (end == p || !std::isfinite(t) || t < 0) {
+      fprintf(stderr, "vrig: %s:%d: expected '<t_s> <command>'\n", path.c_str(), lineno);
+      fclose(f);
+      return false;
+    }
+    if (t < prev) {
+      fprintf(stderr, "vrig: %s:%d: time goes backwards\n", path.c_str(), lineno);
+      fclose(f);
+      return false;
+    }
+    prev = t;
+    if (*end == ' ' || *end == '\t') ++end;
+    // "\x.." escapes let a script send raw bytes (binary-line tests).
+    std::string text;
+    for (const char* q = end; *q; ++q) {
+      if (q[0] == '\\' && q[1] == 'x' && isxdigit((unsigned char)q[2]) && isxdigit((unsigned char)q[3])) {
+        char hex[3] = {q[2], q[3], 0};
+        text.push_back(static_cast<char>(strtol(hex, nullptr, 16)));
+        q += 3;
+      } else {
+        text.push_back(*q);
+      }
+    }
+    out.push_back({t, text});
+  }
+  fclose(f);
+  return true;
+}
+
+// ---- shared between both modes: output lines, log, stats --------------------------------------
+struct Output {
+  const Options* opt = nullptr;
+  FILE* log = nullptr;
+  bool header_written = false;
+  std::string line;
+  long rows = 0;
+
+  static bool is_row(const std::string& s) {
+    if (s.empty()) return false;
+    int commas = 0;
+    for (char c : s) {
+      if (c == ',') ++commas;
+      else if (!(isdigit((unsigned char)c) || c == '.' || c == '-')) return false;
+    }
+    return commas == 4;
+  }
+  void complete(double t) {
+    if (!opt->quiet) {
+      if (opt->stamp) printf("[%.3f] %s\n", t, line.c_str());
+      else printf("%s\n", line.c_str());
+    }
+    if (log) {
+      if (line == "t_s,v_V,d_mm,ref_mm,duty") {
+        if (!header_written) fprintf(log, "%s\n", line.c_str());
+        header_written = true;
+      } else if (is_row(line)) {
+        if (!header_written) {
+          fprintf(log, "t_s,v_V,d_mm,ref_mm,duty\n");
+          header_written = true;
+        }
+        fprintf(log, "%s\n", line.c_str());
+        ++rows;
+      }
+    }
+    line.clear();
+  }
+  void byte(uint8_t b, double t) {
+    if (b == '\n') complete(t);
+    else if (b != '\r') line.push_back(static_cast<char>(b));
+  }
+};
+
+struct Stats {
+  uint64_t ticks = 0;
+  uint64_t t_start = 0, t_prev_start = 0;
+  uint64_t ctl_max = 0, ctl_sum = 0, ctl_n = 0;
+  uint64_t tick_max = 0, tick_sum = 0;
+  uint64_t iv_min = UINT64_MAX, iv_max = 0;
+  double first_tick_s = -1, last_tick_s = -1;
+  // Within the flood window.
+  uint64_t flood_ticks = 0, flood_iv_max = 0;
+  // Sensor fault.
+  double heater_off_s = -1;
+  uint64_t ticks_after_fault_with_heat = 0;
+  // Serial.
+  uint64_t bytes_in = 0, bytes_out = 0;
+  unsigned wdtcsr = 0;       // WDTCSR at the end of the run (ELF): the watchdog's setting
+  uint32_t stack_free = 0;  // never-touched SRAM bytes (painted), ELF only
+  uint16_t sp_min = 0xFFFF; // lowest SP set by a frame allocation (out SPL/SPH), ELF only
+  uint32_t sp_min_pc = 0;
+  uint16_t sp_min_run = 0xFFFF;  // after the first tick (setup excluded)
+  uint16_t sp_pending = 0xFFFF;
+  uint64_t sp_pending_cycle = 0;
+  uint32_t sp_pending_pc = 0;
+  double sp_min_s = 0;
+};
+
+// Millivolts on the sensor pin for a displacement (rig_config.h calibration, inverted).
+double sensor_mv(double mm) {
+  const double v = (mm - RIG_SENSOR_OFFSET_MM) / RIG_SENSOR_MM_PER_V;
+  return sma::clamp(v, 0.0, 5.0) * 1000.0;
+}
+
+// Deterministic flood bytes: mostly printable garbage, some newlines, some binary.
+struct Flood {
+  uint32_t s = 12345;
+  uint8_t next() {
+    s = s * 1664525u + 1013904223u;
+    const uint32_t r = s >> 24;
+    if (r < 8) return '\n';
+    if (r < 12) return static_cast<uint8_t>(s >> 8);  // any byte
+    return static_cast<uint8_t>(32 + (s >> 9) % 95);
+  }
+};
+
+void write_json(const Options& o, const Stats& st, const char* variant, double sim_s) {
+  if (o.cycles_json.empty()) return;
+  FILE* f = fopen(o.cycles_json.c_str(), "w");
+  if (!f) {
+    fprintf(stderr, "vrig: cannot write %s\n", o.cycles_json.c_str());
+    return;
+  }
+  const double span = st.last_tick_s - st.first_tick_s;
+  const double rate = (st.ticks > 1 && span > 0) ? (st.ticks - 1) / span : 0.0;
+  const double cyc_us = 1e6 / kFreq;
+  const double ivmin = st.iv_min == UINT64_MAX ? 0.0 : st.iv_min * cyc_us;
+  const double ivmax = st.iv_max * cyc_us;
+  double jitter = 0;
+  if (st.ticks > 1) jitter = sma::max(fabs(ivmin - 1e6 / RIG_TICK_HZ), fabs(ivmax - 1e6 / RIG_TICK_HZ));
+  const double flood_len = o.flood_to - o.flood_from;
+  fprintf(f,
+          "{\n  \"variant\": \"%s\",\n  \"sim_s\": %.3f,\n  \"ticks\": %llu,\n"
+          "  \"tick_rate_hz\": %.4f,\n"
+          "  \"control_cycles_max\": %llu,\n  \"control_cycles_mean\": %.1f,\n"
+          "  \"tick_cycles_max\": %llu,\n  \"tick_cycles_mean\": %.1f,\n"
+          "  \"cycles_per_tick_budget\": %u,\n"
+          "  \"tick_interval_min_us\": %.3f,\n  \"tick_interval_max_us\": %.3f,\n"
+          "  \"tick_jitter_us\": %.3f,\n"
+          "  \"flood_tick_rate_hz\": %.4f,\n  \"flood_tick_interval_max_us\": %.3f,\n"
+          "  \"sensor_fault_s\": %.4f,\n  \"heater_off_s\": %.4f,\n"
+          "  \"ticks_heating_after_fault\": %llu,\n"
+          "  \"uart_bytes_in\": %llu,\n  \"uart_bytes_out\": %llu,\n"
+          "  \"wdtcsr\": %u,\n"
+          "  \"sram_never_touched_bytes\": %u,\n  \"sp_min\": %u,\n  \"sp_min_after_setup\": %u,\n  \"sp_min_pc\": %u,\n"
+          "  \"sp_min_s\": %.4f\n}\n",
+          variant, sim_s, (unsigned long long)st.ticks, rate, (unsigned long long)st.ctl_max,
+          st.ctl_n ? (double)st.ctl_sum / st.ctl_n : 0.0, (unsigned long long)st.tick_max,
+          st.ctl_n ? (double)st.tick_sum / st.ctl_n : 0.0, kFreq / RIG_TICK_HZ, ivmin, ivmax,
+          jitter, flood_len > 0 ? st.flood_ticks / flood_len : 0.0, st.flood_iv_max * cyc_us,
+          o.fault_at, st.heater_off_s, (unsigned long long)st.ticks_after_fault_with_heat,
+          (unsigned long long)st.bytes_in, (unsigned long long)st.bytes_out, st.wdtcsr, st.stack_free, st.sp_min, st.sp_min_run, st.sp_min_pc, st.sp_min_s);
+  fclose(f);
+}
+
+// Non-blocking stdin lines (when neither --script nor --pty).
+struct StdinLines {
+  std::string buf;
+  bool eof = false;
+  void poll_into(std::string& out) {
+    if (eof) return;
+    struct pollfd p = {0, POLLIN, 0};
+    while (::poll(&p, 1, 0) > 0 && (p.revents & (POLLIN | POLLHUP))) {
+      char tmp[256];
+      const ssize_t n = read(0, tmp, sizeof tmp);
+      if (n <= 0) {
+        eof = true;
+        return;
+      }
+      out.append(tmp, static_cast<size_t>(n));
+    }
+  }
+};
+
+// ---- the simulated AVR -------------------------------------------------------------------------
+struct Rig {
+  Options opt;
+  avr_t* avr = nullptr;
+  sma::Plant* plant = nullptr;
+  avr_irq_t* adc0 = nullptr;
+  avr_irq_t* uart_in = nullptr;
+  bool xon = true;
+  std::string tx;  // bytes waiting to go to the AVR
+  size_t tx_pos = 0;
+  std::vector<ScriptLine> script;
+  size_t script_pos = 0;
+  StdinLines in;
+  Output out;
+  Stats st;
+  Flood flood;
+#ifdef VRIG_HAVE_PTY
+  uart_pty_t pty;
+#endif
+  struct timespec wall0;
+
+  double now() const { return static_cast<double>(avr->cycle) / kFreq; }
+
+  double duty() const {
+    const uint8_t* d = avr->data;
+    if (!(d[kTCCR1A] & 0x80)) return 0.0;  // COM1A1 off: pin low
+    const unsigned icr = d[kICR1L] | (d[kICR1L + 1] << 8);
+    const unsigned ocr = d[kOCR1AL] | (d[kOCR1AL + 1] << 8);
+    if (icr == 0) return 0.0;
+    return sma::min(1.0, (ocr + 1.0) / (icr + 1.0));
+  }
+
+  void feed() {
+    // Nothing is sent before the firmware's first line (its banner, after Serial.begin): bytes
+    // sent earlier would be lost, and script times count from power-on anyway.
+    if (opt.pty || st.bytes_out == 0) return;
+    bool flooding = opt.flood_from >= 0 && now() >= opt.flood_from && now() < opt.flood_to;
+    while (xon) {
+      uint8_t b;
+      if (tx_pos < tx.size()) {
+        b = static_cast<uint8_t>(tx[tx_pos++]);
+        if (tx_pos == tx.size()) {
+          tx.clear();
+          tx_pos = 0;
+        }
+      } else if (flooding) {
+        b = flood.next();
+      } else {
+        break;
+      }
+      ++st.bytes_in;
+      avr_raise_irq(uart_in, b);
+    }
+  }
+
+  void plant_tick() {
+    const double t = now();
+    const double v = RIG_V_SUPPLY * sqrt(duty());
+    plant->step(v, kPlantDt);
+    double mv = sensor_mv(plant->measure());
+    if (opt.fault_at >= 0 && t >= opt.fault_at) mv = opt.fault_mv;
+    avr_raise_irq(adc0, static_cast<uint32_t>(mv + 0.5));
+    while (script_pos < script.size() && script[script_pos].t <= t) {
+      tx += script[script_pos].text;
+      tx += '\n';
+      ++script_pos;
+    }
+    if (!opt.pty && script.empty()) in.poll_into(tx);
+    feed();
+    if (opt.realtime) {
+      struct timespec w;
+      clock_gettime(CLOCK_MONOTONIC, &w);
+      const double wall = (w.tv_sec - wall0.tv_sec) + 1e-9 * (w.tv_nsec - wall0.tv_nsec);
+      if (t > wall) usleep(static_cast<useconds_t>((t - wall) * 1e6));
+    }
+  }
+
+  void marker(uint8_t v) {
+    const uint64_t c = avr->cycle;
+    if (v == 1) {
+      if (st.ticks > 0) {
+        const uint64_t iv = c - st.t_start;
+        st.iv_min = sma::min(st.iv_min, iv);
+        st.iv_max = sma::max(st.iv_max, iv);
+        const double t = now();
+        if (opt.flood_from >= 0 && t >= opt.flood_from && t < opt.flood_to) {
+          st.flood_iv_max = sma::max(st.flood_iv_max, iv);
+        }
+      } else {
+        st.first_tick_s = now();
+      }
+      const double t = now();
+      if (opt.flood_from >= 0 && t >= opt.flood_from && t < opt.flood_to) ++st.flood_ticks;
+      st.t_start = c;
+      st.last_tick_s = t;
+      ++st.ticks;
+    } else if (v == 2) {
+      const uint64_t d = c - st.t_start;
+      st.ctl_max = sma::max(st.ctl_max, d);
+      st.ctl_sum += d;
+      ++st.ctl_n;
+      if (opt.fault_at >= 0 && now() >= opt.fault_at) {
+        if (duty() > 0.0) ++st.ticks_after_fault_with_heat;
+        else if (st.heater_off_s < 0) st.heater_off_s = now();
+      }
+    } else if (v == 3) {
+      const uint64_t d = c - st.t_start;
+      st.tick_max = sma::max(st.tick_max, d);
+      st.tick_sum += d;
+    }
+  }
+};
+
+Rig* g_rig = nullptr;
+volatile sig_atomic_t g_stop = 0;
+// Ctrl-C ends the run cleanly (log and JSON written).
+void on_sigint(int) { g_stop = 1; }
+
+void noop_sleep(avr_t*, avr_cycle_count_t) {}
+void (*g_chained_reset)(avr_t*) = nullptr;
+bool g_wdrf_at_reset = false;
+void paint_reset(avr_t* avr) {
+  if (g_chained_reset) g_chained_reset(avr);
+  for (uint32_t a = 0x100; a <= avr->ramend; ++a) avr->data[a] = 0xA5;
+  if (g_wdrf_at_reset) avr->data[0x54] |= 0x08;  // MCUSR.WDRF
+}
+
+avr_cycle_count_t plant_cb(avr_t*, avr_cycle_count_t when, void*) {
+  g_rig->plant_tick();
+  return when + kPlantCycles;
+}
+// Stack depth: every SP write (pushes, pops, frame set-up) lands here. SP is two registers written
+// one after the other (code: SPH then SPL; simavr's push/pop: SPL then SPH), so the value after
+// the first write can be a transient: a value is committed only if no other SP write follows
+// within 4 cycles.
+void sp_commit(Stats& st) {
+  if (st.ticks > 0 && st.sp_pending >= 0x100 && st.sp_pending < st.sp_min_run) st.sp_min_run = st.sp_pending;
+  if (st.sp_pending >= 0x100 && st.sp_pending < st.sp_min) {
+    st.sp_min = st.sp_pending;
+    st.sp_min_pc = st.sp_pending_pc;
+    st.sp_min_s = st.sp_pending_cycle / static_cast<double>(kFreq);
+  }
+}
+void sp_cb(avr_t* avr, avr_io_addr_t addr, uint8_t v, void*) {
+  avr->data[addr] = v;
+  Stats& st = g_rig->st;
+  if (avr->cycle - st.sp_pending_cycle > 4) sp_commit(st);
+  st.sp_pending = static_cast<uint16_t>(avr->data[0x5D] | (avr->data[0x5E] << 8));
+  st.sp_pending_cycle = avr->cycle;
+  st.sp_pending_pc = avr->pc;
+}
+void gpior_cb(avr_t* avr, avr_io_addr_t addr, uint8_t v, void*) {
+  avr->data[addr] = v;
+  g_rig->marker(v);
+}
+void uart_out_cb(avr_irq_t*, uint32_t value, void*) {
+  ++g_rig->st.bytes_out;
+  g_rig->out.byte(static_cast<uint8_t>(value), g_rig->now());
+}
+void xon_cb(avr_irq_t*, uint32_t, void*) {
+  g_rig->xon = true;
+  g_rig->feed();
+}
+void xoff_cb(avr_irq_t*, uint32_t, void*) { g_rig->xon = false; }
+
+int run_avr(Rig& rig) {
+  elf_firmware_t f;
+  memset(&f, 0, sizeof f);
+  if (elf_read_firmware(rig.opt.elf.c_str(), &f) != 0) {
+    fprintf(stderr, "vrig: cannot read ELF %s\n", rig.opt.elf.c_str());
+    return 2;
+  }
+  strcpy(f.mmcu, "atmega328p");
+  f.frequency = kFreq;
+  f.vcc = f.avcc = f.aref = 5000;
+  avr_t* avr = avr_make_mcu_by_name(f.mmcu);
+  if (!avr) return 2;
+  avr_init(avr);
+  avr_load_firmware(avr, &f);
+  avr->frequency = kFreq;
+  avr->vcc = avr->avcc = avr->aref = 5000;
+  avr->sleep = noop_sleep;
+  avr->log = 1;
+  // Paint the SRAM at reset: the startup code overwrites .data and .bss, the stack the rest;
+  // the longest untouched run is the free margin between .bss and the deepest stack.
+  g_chained_reset = avr->reset;
+  g_wdrf_at_reset = rig.opt.wdrf;
+  avr->reset = paint_reset;
+  avr_reset(avr);
+  rig.avr = avr;
+
+  uint32_t flags = 0;
+  avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
+  flags &= ~AVR_UART_FLAG_STDIO;
+  avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+  avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), uart_out_cb, nullptr);
+  if (rig.opt.pty) {
+#ifndef VRIG_HAVE_PTY
+    fprintf(stderr, "vrig: built without libsimavrparts: no --pty\n");
+    return 2;
+#else
+    uart_pty_init(avr, &rig.pty);
+    uart_pty_connect(&rig.pty, '0');
+    fprintf(stderr, "vrig: UART0 on %s (also /tmp/simavr-uart0)\n", rig.pty.pty.slavename);
+#endif
+  } else {
+    rig.uart_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), xon_cb, nullptr);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), xoff_cb, nullptr);
+  }
+  rig.adc0 = avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0);
+  avr_register_io_write(avr, kGPIOR0, gpior_cb, nullptr);
+  avr_register_io_write(avr, 0x5D, sp_cb, nullptr);
+  avr_register_io_write(avr, 0x5E, sp_cb, nullptr);
+  // Sensor at rest before the firmware's first conversion.
+  avr_raise_irq(rig.adc0, static_cast<uint32_t>(sensor_mv(rig.plant->measure()) + 0.5));
+  avr_cycle_timer_register(avr, kPlantCycles, plant_cb, nullptr);
+
+  clock_gettime(CLOCK_MONOTONIC, &rig.wall0);
+  const uint64_t end = static_cast<uint64_t>(rig.opt.duration * kFreq);
+  int state = cpu_Running;
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_sigint;
+  sigaction(SIGINT, &sa, nullptr);
+  while (avr->cycle < end && !g_stop) {
+    state = avr_run(avr);
+    if (state == cpu_Done || state == cpu_Crashed) break;
+  }
+  // (No uart_pty_stop(): in simavr 1.6 it signals the pty thread and joins a loop that does not
+  // end; the thread ends with the process.)
+  if (!rig.out.line.empty()) rig.out.complete(rig.now());
+  {
+    // Longest run of paint below RAMEND's stack: the free margin between .bss/heap and stack.
+    uint32_t best = 0, run = 0;
+    for (uint32_t a = 0x100; a <= avr->ramend; ++a) {
+      run = avr->data[a] == 0xA5 ? run + 1 : 0;
+      if (run > best) best = run;
+    }
+    rig.st.stack_free = best;
+    rig.st.wdtcsr = avr->data[0x60];
+    sp_commit(rig.st);
+  }
+  write_json(rig.opt, rig.st, "elf", rig.now());
+  if (state == cpu_Crashed) {
+    fprintf(stderr, "vrig: the AVR crashed at %.3f s\n", rig.now());
+    return 3;
+  }
+  return 0;
+}
+
+// ---- native: the same console, controller and latch on the host, same plant and script --------
+int run_native(Rig& rig) {
+  namespace con = sma::console;
+  sma::ControllerConfig cfg;
+  cfg.dt = 1.0 / RIG_TICK_HZ;
+  cfg.v_max = RIG_V_MAX;
+  cfg.gains = con::default_gains(sma::Mode::FeedforwardPid);
+  sma::Controller<float> ctl(sma::Params(), sma::Effects(), cfg);
+  sma::ReferenceGen<float> gen(sma::Reference::constant(0.0));
+  sma::SafetyConfig scfg;
+  scfg.t_limit_C = RIG_T_LIMIT_C;
+  scfg.sensor_v_min = RIG_SENSOR_V_MIN;
+  scfg.sensor_v_max = RIG_SENSOR_V_MAX;
+  sma::Safety safety(scfg);
+  safety.boot(false);
+  con::State state;
+  con::LineBuffer lb;
+  con::Reply reply;
+  uint16_t run_seen = 0;
+  uint32_t ticks = 0, run_start = 0;
+  bool header_due = false;
+  float last_mm = 0;
+  double v_applied = 0;  // held between ticks (the PWM)
+  const int sub = static_cast<int>(1.0 / RIG_TICK_HZ / kPlantDt + 0.5);
+  const long n_ticks = static_cast<long>(rig.opt.duration * RIG_TICK_HZ);
+  auto emit = [&](const char* s) {
+    for (const char* p = s; *p; ++p) rig.out.byte(static_cast<uint8_t>(*p), ticks * cfg.dt);
+    rig.out.byte('\n', ticks * cfg.dt);
+  };
+  for (long k = 0; k < n_ticks; ++k) {
+    const double t = k * cfg.dt;
+    // Console input due by now.
+    while (rig.script_pos < rig.script.size() && rig.script[rig.script_pos].t <= t) {
+      std::string s = rig.script[rig.script_pos++].text + "\n";
+      for (char ch : s) {
+        safety.on_rx();
+        const auto stt = lb.push(ch);
+        if (stt == con::LineBuffer::Status::Pending) continue;
+        if (stt == con::LineBuffer::Status::Line) {
+          con::Command c;
+          const bool tele_before = state.tele;
+          if (con::execute(lb.line(), state, safety.fault(), reply, con::Limits(), &c)) {
+            if (c.op == con::Op::Stop) safety.clear();
+            safety.set_limit(state.tlim_C);
+            ctl.set_voltage(static_cast<float>(state.volt));
+            if (state.active_mode() != ctl.mode()) ctl.set_mode(state.active_mode(), last_mm);
+            if (c.op == con::Op::Gains || c.op == con::Op::SetMode) ctl.set_gains(state.gains());
+            if (state.run != run_seen) {
+              run_seen = state.run;
+              gen = sma::ReferenceGen<float>(state.reference());
+              run_start = ticks;
+            }
+            if (c.op == con::Op::Tele && c.on && !tele_before) header_due = true;
+          }
+        } else {
+          con::line_error(stt, reply);
+        }
+        if (reply.len) emit(reply.text);
+      }
+    }
+    // Sensor: 1 ms samples of the last tick, averaged like the firmware's ADC window, 10 bit.
+    double mv_sum = 0;
+    for (int s = 0; s < sub; ++s) {
+      rig.plant->step(v_applied, kPlantDt);
+      double mv = sensor_mv(rig.plant->measure());
+      if (rig.opt.fault_at >= 0 && t >= rig.opt.fault_at) mv = rig.opt.fault_mv;
+      mv_sum += floor(mv / 5000.0 * 1024.0);  // ADC count
+    }
+    const double volts = mv_sum / sub * (RIG_ADC_VREF / RIG_ADC_COUNTS);
+    const float mm = static_cast<float>(RIG_SENSOR_MM_PER_V * volts + RIG_SENSOR_OFFSET_MM);
+    last_mm = mm;
+    const float tref = static_cast<float>((ticks - run_start) * cfg.dt);
+    const float ref = gen.at(tref);
+    const float vc = ctl.step(ref, mm);
+    sma::SafetyInput in;
+    in.sensor_v = volts;
+    in.measured_mm = mm;
+    in.wire_temp_C = ctl.wire_temperature();
+    in.command_v = vc;
+    in.heating = state.heat;
+    const double v = safety.gate(in);
+    if (safety.tripped() && state.heat) {
+      state.heat = false;
+      ctl.set_mode(sma::Mode::Off, mm);
+    }
+    // PWM quantisation as in the firmware.
+    const double top1 = RIG_PWM_TOP + 1.0;
+    double n = floor((v / RIG_V_SUPPLY) * (v / RIG_V_SUPPLY) * top1 + 0.5);
+    if (n < 1) n = 0;
+    const double duty = n / top1;
+    v_applied = RIG_V_SUPPLY * sqrt(duty);
+    ++rig.st.ticks;
+    if (state.tele) {
+      if (header_due) {
+        emit("t_s,v_V,d_mm,ref_mm,duty");
+        header_due = false;
+      }
+      con::telemetry_row(reply, ticks, RIG_TICK_HZ, v, mm, ref, duty);
+      emit(reply.text);
+    }
+    ++ticks;
+  }
+  write_json(rig.opt, rig.st, "native", n_ticks * cfg.dt);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Rig rig;
+  g_rig = &rig;
+  Options& o = rig.opt;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto val = [&]() -> const char* {
+      if (i + 1 >= argc) {
+        fprintf(stderr, "vrig: %s needs a value\n", a.c_str());
+        exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--duration") o.duration = atof(val());
+    else if (a == "--script") o.script = val();
+    else if (a == "--log") o.log = val();
+    else if (a == "--cycles-json") o.cycles_json = val();
+    else if (a == "--pty") o.pty = o.realtime = true;
+    else if (a == "--realtime") o.realtime = true;
+    else if (a == "--native") o.native = true;
+    else if (a == "--wdrf") o.wdrf = true;
+    else if (a == "--quiet") o.quiet = true;
+    else if (a == "--stamp") o.stamp = true;
+    else if (a == "--noise-mm") o.noise_mm = atof(val());
+    else if (a == "--seed") o.seed = strtoull(val(), nullptr, 10);
+    else if (a == "--effect") {
+      const char* e = val();
+      if (!set_effect(o.fx, e)) {
+        fprintf(stderr, "vrig: bad --effect %s\n", e);
+        return 2;
+      }
+    } else if (a == "--sensor-fault") {
+      const char* s = val();
+      o.fault_at = atof(s);
+      if (const char* c = strchr(s, ':')) o.fault_mv = atof(c + 1);
+    } else if (a == "--flood") {
+      const char* s = val();
+      const char* c = strchr(s, ':');
+      if (!c) {
+        fprintf(stderr, "vrig: --flood T1:T2\n");
+        return 2;
+      }
+      o.flood_from = atof(s);
+      o.flood_to = atof(c + 1);
+    } else if (a == "-h" || a == "--help") {
+      usage();
+      return 0;
+    } else if (o.elf.empty() && (a[0] != '-' || a == "-")) {
+      o.elf = a;
+    } else {
+      fprintf(stderr, "vrig: unknown option %s\n", a.c_str());
+      usage();
+      return 2;
+    }
+  }
+  if (o.elf.empty() && !o.native) {
+    usage();
+    return 2;
+  }
+  if (!(o.duration > 0)) {
+    fprintf(stderr, "vrig: --duration must be > 0\n");
+    return 2;
+  }
+  if (const char* e = o.fx.check()) {
+    fprintf(stderr, "vrig: effect: %s\n", e);
+    return 2;
+  }
+  if (!o.script.empty() && !read_script(o.script, rig.script)) return 2;
+  if (!o.script.empty() || o.pty) o.use_stdin = false;
+  rig.out.opt = &o;
+  if (!o.log.empty()) {
+    rig.out.log = fopen(o.log.c_str(), "w");
+    if (!rig.out.log) {
+      fprintf(stderr, "vrig: cannot write %s\n", o.log.c_str());
+      return 2;
+    }
+    fprintf(rig.out.log, "# rig: vrig %s noise_mm=%g\n", o.native ? "native" : o.elf.c_str(), o.noise_mm);
+  }
+  sma::RigOptions ro;
+  ro.noise_mm = o.noise_mm;
+  ro.v_supply = RIG_V_SUPPLY;
+  ro.seed = o.seed;
+  static sma::Plant plant(sma::Params(), o.fx, ro);  // static: ~130 KB of sensor history
+  rig.plant = &plant;
+  const int rc = o.native ? run_native(rig) : run_avr(rig);
+  if (rig.out.log) fclose(rig.out.log);
+  fflush(stdout);
+  return rc;
+}
