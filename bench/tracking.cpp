@@ -85,7 +85,7 @@ int main(int argc, char** argv) {
                 r.gains.ki, r.gains.kd, r.m.rms_mm, r.m.max_heat_mm, r.m.max_cool_mm,
                 r.m.overshoot_pct, r.m.settle_s);
   std::printf("\nPlant speed: %.0f simulated s per wall s (paper's model), %.0f (with latent heat, "
-              "1 ms sub-steps)\n", speed[0], speed[1]);
+              "5 ms sub-steps)\n", speed[0], speed[1]);
 
   FILE* f = std::fopen(json_path, "w");
   if (!f) {

@@ -58,14 +58,19 @@ TEST(ConsoleState, BootsWithHeaterOffAndDefaults) {
   EXPECT_EQ(s.mode, Mode::FeedforwardPid);
   EXPECT_DOUBLE_EQ(s.tlim_C, 110.0);
   EXPECT_FALSE(s.tele);
-  EXPECT_DOUBLE_EQ(s.gains_ffpid.kp, 12.8);
-  EXPECT_DOUBLE_EQ(s.gains_ffpid.ki, 4.0);
-  EXPECT_DOUBLE_EQ(s.gains_ffpid.kd, 0.09);
-  EXPECT_DOUBLE_EQ(s.gains_pid.kp, 16.0);
-  EXPECT_DOUBLE_EQ(s.gains_pid.ki, 1.25);
-  EXPECT_DOUBLE_EQ(s.gains_pid.kd, 0.08);
-  EXPECT_DOUBLE_EQ(s.gains_pid.d_filter_s, 0.05);
-  EXPECT_DOUBLE_EQ(s.gains_pid.i_zone_mm, 0.05);
+  // Each PID mode starts with its own tuned defaults, and they are valid gains.
+  const sma::PidGains dp = sma::console::default_gains(Mode::Pid);
+  const sma::PidGains df = sma::console::default_gains(Mode::FeedforwardPid);
+  EXPECT_EQ(dp.check(), nullptr);
+  EXPECT_EQ(df.check(), nullptr);
+  EXPECT_DOUBLE_EQ(s.gains_pid.kp, dp.kp);
+  EXPECT_DOUBLE_EQ(s.gains_pid.ki, dp.ki);
+  EXPECT_DOUBLE_EQ(s.gains_pid.kd, dp.kd);
+  EXPECT_DOUBLE_EQ(s.gains_ffpid.kp, df.kp);
+  EXPECT_DOUBLE_EQ(s.gains_ffpid.ki, df.ki);
+  EXPECT_DOUBLE_EQ(s.gains_ffpid.kd, df.kd);
+  EXPECT_GT(s.gains_pid.kp, 0.0);  // a PID that does something
+  EXPECT_GT(s.gains_ffpid.ki, 0.0);  // integral action: zero steady-state error
   EXPECT_EQ(s.traj.n_points, 0);
   EXPECT_EQ(s.reference().kind, sma::RefKind::Constant);
 }
@@ -164,7 +169,7 @@ TEST(ConsoleCommands, GainsGoToTheSelectedPidMode) {
   EXPECT_DOUBLE_EQ(c.s.gains_ffpid.ki, 2.0);
   EXPECT_DOUBLE_EQ(c.s.gains_ffpid.kd, 0.1);
   EXPECT_DOUBLE_EQ(c.s.gains_ffpid.d_filter_s, 0.05);  // untouched
-  EXPECT_DOUBLE_EQ(c.s.gains_pid.kp, 16.0);
+  EXPECT_DOUBLE_EQ(c.s.gains_pid.kp, sma::console::default_gains(Mode::Pid).kp);  // the other mode: untouched
   c.run("mode pid");
   EXPECT_EQ(c.run("gains 20 0 0"), "OK gains pid 20.0000 0.0000 0.0000");
   EXPECT_DOUBLE_EQ(c.s.gains().kp, 20.0);

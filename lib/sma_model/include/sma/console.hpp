@@ -45,17 +45,18 @@ constexpr uint8_t kLineMax = 47;    // longest accepted line, without the newlin
 constexpr uint8_t kReplyMax = 120;  // longest reply, with the terminating 0
 constexpr double kTrajMaxS = 3600.0;
 
-// Default gains (tuned on the simulated plant in rig-like conditions, sine test).
+// Default gains: each mode tuned for its own best result on the paper's sine in rig-like
+// conditions (host/include/sma_host/tune.hpp; bench_tracking prints them).
 inline PidGains default_gains(Mode m) {
   PidGains g;
   if (m == Mode::Pid) {
-    g.kp = 16.0;
-    g.ki = 1.25;
-    g.kd = 0.08;
+    g.kp = 12.5;
+    g.ki = 5.12;
+    g.kd = 0.25;
   } else {
-    g.kp = 12.8;
-    g.ki = 4.0;
-    g.kd = 0.09;
+    g.kp = 12.1;
+    g.ki = 3.13;
+    g.kd = 0.0;
   }
   g.d_filter_s = 0.05;
   g.i_zone_mm = 0.05;

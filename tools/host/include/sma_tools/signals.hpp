@@ -1,8 +1,6 @@
 // Open-loop voltage signals for the simulated rig: piecewise-linear breakpoint lists (a repeated
 // time is a jump), built from a constant, a list of steps, a CSV of t,V, or the paper's training
-// signal (section III.B, Fig. 4): a slow voltage ramp up and down at +-5.88e-3 V/s whose peaks
-// decay from cycle to cycle, so that the wire runs the major loop and then minor loops of
-// decreasing peak temperature, each cooled back to martensite.
+// signal (section III.B, Fig. 4; defined in sma_host/signals.hpp).
 #ifndef SMA_TOOLS_SIGNALS_HPP
 #define SMA_TOOLS_SIGNALS_HPP
 
@@ -14,6 +12,7 @@
 #include <vector>
 #include "error.hpp"
 #include "rig_log.hpp"
+#include "sma_host/signals.hpp"
 
 namespace sma_tools {
 
@@ -45,48 +44,12 @@ class Pwl {
   size_t cursor_ = 0;
 };
 
-// The training signal. Default peaks: 2.0 V first (a full transformation even for a wire that
-// loses 50 % more heat than the paper's: eq 10 with eps_h ~ 1), then a dense decaying series
-// 1.6 .. 1.2 V whose peak temperatures cover T_s..T_f of wires around the paper's (minor loops,
-// eqs 5-9) and fall just below T_s (eq 10 with a small eps_h, which separates q from e). Each
-// descent goes down to `floor_V` and holds there so the wire is martensite again. Measured on a
-// simulated wire (tools/tests): 12 peaks leave the minor-loop parameters well enough fixed that a
-// closed-loop sine the fit never saw is predicted to the noise level; 7 peaks (one hour less)
-// leave ~4x the noise. The optional probe (a step to probe_V, then off) excites the thermal time
-// constant, which a quasi-static ramp barely shows: without it h and the transformation
-// temperatures slide together (errors up to 0.6 K / 0.9 % instead of 0.1 K / 0.2 %).
-struct TrainingSignal {
-  double slope = 5.88e-3;  // V/s, both directions (paper)
-  std::vector<double> peaks = {2.0, 1.6, 1.55, 1.5, 1.46, 1.42, 1.39, 1.36, 1.33, 1.3, 1.25, 1.2};
-  double floor_V = 0.0;
-  double hold_s = 20.0;     // at the floor after each descent (and at the start)
-  double probe_V = 1.6;     // 0: no probe
-  double probe_s = 30.0;    // on, then off, for this long each
-
+// The training signal (sma_host::TrainingSignal, the one definition) as a Pwl.
+struct TrainingSignal : sma_host::TrainingSignal {
   Pwl build() const {
-    if (!(slope > 0.0)) throw Error("training signal: slope must be > 0");
+    if (const char* problem = check()) throw Error(std::string("training signal: ") + problem);
     Pwl s;
-    double t = 0.0;
-    s.add(t, floor_V);
-    t += hold_s;
-    s.add(t, floor_V);
-    for (double p : peaks) {
-      if (!(p > floor_V)) throw Error("training signal: every peak must be above the floor");
-      t += (p - floor_V) / slope;
-      s.add(t, p);
-      t += (p - floor_V) / slope;
-      s.add(t, floor_V);
-      t += hold_s;
-      s.add(t, floor_V);
-    }
-    if (probe_V > 0.0) {
-      s.add(t, probe_V);
-      t += probe_s;
-      s.add(t, probe_V);
-      s.add(t, 0.0);
-      t += probe_s;
-      s.add(t, 0.0);
-    }
+    for (const auto& p : breakpoints()) s.add(p.first, p.second);
     return s;
   }
 };
@@ -114,7 +77,7 @@ inline Pwl steps_signal(const std::string& spec, double tail_s) {
   double last_t = -1.0;
   while (std::getline(ss, item, ',')) {
     const size_t at = item.find('@');
-    double v, t;
+    double v = 0.0, t = 0.0;
     if (at == std::string::npos || !detail::to_number(detail::trim(item.substr(0, at)), v) ||
         !detail::to_number(detail::trim(item.substr(at + 1)), t))
       throw Error("steps: '" + item + "': expected V@t, e.g. 1.4@0,0@60");

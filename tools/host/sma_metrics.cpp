@@ -1,0 +1,57 @@
+// sma_metrics LOG.csv --test sine|steps [--period S] [--step S] [--start S]
+// Tracking metrics of a closed-loop rig log (needs ref_mm), with the definitions of the
+// benchmark and the tests (host/include/sma_host/metrics.hpp): RMS, max |error| while heating
+// and cooling, overshoot, settling, steady-state error; on the measured position. Prints JSON.
+// --start drops the log before that time (the command that started the run).
+#include <iostream>
+#include "sma_host/metrics.hpp"
+#include "sma_tools/cli.hpp"
+#include "sma_tools/json.hpp"
+#include "sma_tools/rig_log.hpp"
+
+namespace {
+using sma_tools::Error;
+using sma_tools::json::number;
+
+int run(int argc, char** argv) {
+  sma_tools::Args args(argc, argv);
+  std::string path, test;
+  double period = 50.0, step = 25.0, start = 0.0;
+  while (!args.empty()) {
+    const std::string a = args.next();
+    if (a == "--test") test = args.value(a);
+    else if (a == "--period") period = args.number(a);
+    else if (a == "--step") step = args.number(a);
+    else if (a == "--start") start = args.number(a);
+    else if (a == "-h" || a == "--help") {
+      std::cout << "usage: sma_metrics LOG.csv --test sine|steps [--period S] [--step S] [--start S]\n";
+      return 0;
+    } else if (!a.empty() && a[0] == '-') throw Error("unknown option " + a);
+    else path = a;
+  }
+  if (path.empty() || (test != "sine" && test != "steps")) throw Error("usage: sma_metrics LOG.csv --test sine|steps");
+  if (!(period > 0 && step > 0)) throw Error("--period and --step must be > 0");
+  const sma_tools::RigLog log = sma_tools::read_rig_log(path);
+  if (!log.has_ref()) throw Error(path + ": no ref_mm column: metrics need the reference");
+  std::vector<sma_host::Sample> run;
+  for (size_t k = 0; k < log.size(); ++k)
+    if (log.t[k] >= start)
+      run.push_back({log.t[k] - start, log.ref[k], log.d[k], log.d[k], log.v[k], 0.0, 0.0});
+  if (run.size() < 2) throw Error(path + ": no samples after --start");
+  const sma_host::Metrics m = test == "sine" ? sma_host::sine_metrics(run, period, true)
+                                             : sma_host::step_metrics(run, step, true);
+  std::cout << "{\"rms_mm\": " << number(m.rms_mm) << ", \"max_heat_mm\": " << number(m.max_heat_mm)
+            << ", \"max_cool_mm\": " << number(m.max_cool_mm) << ", \"overshoot_pct\": " << number(m.overshoot_pct)
+            << ", \"settle_s\": " << number(m.settle_s) << ", \"sse_mm\": " << number(m.sse_mm) << "}\n";
+  return 0;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "sma_metrics: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,165 @@
+#!/usr/bin/env python3
+"""The main job: the paper's two tests run by the real firmware in the virtual rig.
+
+The firmware ELF runs unchanged in simavr (vrig) against the simulated plant with the rig's
+sensor noise (2 um) and ADC/PWM quantisation; for each test (multi-step, Fig. 9-11; sine,
+Fig. 12-13) and each controller (PID alone, inverse model + PID) it records the telemetry as a
+rig log, computes the error table with sma_metrics (the definitions of the benchmark and the
+tests), and draws figures like the paper's. Also runs vrig's cycle counter.
+Gains: each controller runs each test with the gains the tuner found for it in rig-like
+conditions (bench_tracking's JSON, sent with the console's `gains` command), as in the native
+benchmark; without that file, the firmware's defaults (tuned on the sine).
+
+  paper_tests.py [--build DIR] [--out DIR] [--noise-mm X] [--elf ELF] [--gains-from JSON]
+Writes OUT/{steps,sine}_{pid,ffpid}.csv, OUT/paper_tests.json, OUT/fig09..fig13.png.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+TESTS = (("steps", "step", 150.0), ("sine", "sine", 150.0))
+MODES = (("pid", "PID alone"), ("ffpid", "inverse model + PID"))
+
+
+def tuned_gains(path, test, mode):
+    """(kp, ki, kd) the tuner found for this test and controller in rig-like conditions."""
+    if not path or not os.path.isfile(path):
+        return None
+    with open(path) as f:
+        runs = json.load(f)["runs"]
+    for r in runs:
+        if (r["test"] == ("sine" if test == "sine" else "multi-step") and r["condition"] == "rig-like"
+                and r["controller"] == mode and r["scalar"] == "double"):
+            return r["kp"], r["ki"], r["kd"]
+    return None
+
+
+def run_vrig(vrig, elf, mode, command, duration, log, noise, cycles, gains):
+    script = log + ".script"
+    with open(script, "w") as f:
+        f.write(f"0.0 tele on\n0.02 mode {mode}\n")
+        if gains:
+            f.write("0.03 gains %.6g %.6g %.6g\n" % gains)
+        f.write(f"0.05 {command}\n")
+    cmd = [vrig, elf, "--script", script, "--duration", str(duration + 0.2), "--log", log,
+           "--noise-mm", str(noise), "--quiet", "--cycles-json", cycles]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"vrig failed ({' '.join(cmd)}):\n{r.stderr[-2000:]}")
+
+
+def read_log(path):
+    """A rig log as {column: numpy array}; '#' lines are comments."""
+    import numpy as np
+    with open(path) as f:
+        lines = [ln.strip() for ln in f if ln.strip() and not ln.startswith("#")]
+    names = lines[0].split(",")
+    rows = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
+    return {n: rows[:, i] for i, n in enumerate(names)}
+
+
+def metrics(tool, log, test, start):
+    r = subprocess.run([tool, log, "--test", "sine" if test == "sine" else "steps", "--start", f"{start:.3f}"],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(r.stderr)
+    return json.loads(r.stdout)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--build", default=os.path.join(ROOT, "build"))
+    ap.add_argument("--out", default=None)
+    ap.add_argument("--elf", default=None, help="firmware ELF (default: BUILD/firmware/sma_firmware.elf)")
+    ap.add_argument("--noise-mm", type=float, default=0.002)
+    ap.add_argument("--gains-from", default=None,
+                    help="bench_tracking JSON (default: BUILD/bench-results/tracking.json if present)")
+    a = ap.parse_args()
+    out = a.out or os.path.join(a.build, "paper-tests")
+    os.makedirs(out, exist_ok=True)
+    vrig = os.path.join(a.build, "tools", "vrig", "vrig")
+    elf = a.elf or os.path.join(a.build, "firmware", "sma_firmware.elf")
+    tool = os.path.join(a.build, "tools", "host", "sma_metrics")
+    for p in (vrig, elf, tool):
+        if not os.path.isfile(p):
+            sys.exit(f"missing {p}: build first (cmake --build {a.build})")
+
+    gains_file = a.gains_from or os.path.join(a.build, "bench-results", "tracking.json")
+    results = {}
+    n = 0
+    for test, command, duration in TESTS:
+        for mode, _ in MODES:
+            n += 1
+            log = os.path.join(out, f"{test}_{mode}.csv")
+            print(f"[{n}/4] firmware in the virtual rig: {test}, {mode} ({duration:.0f} s simulated) ...",
+                  file=sys.stderr, flush=True)
+            t0 = time.time()
+            cyc = os.path.join(out, f"{test}_{mode}_cycles.json")
+            gains = tuned_gains(gains_file, test, mode)
+            run_vrig(vrig, elf, mode, command, duration, log, a.noise_mm, cyc, gains)
+            d = read_log(log)
+            start = float(d["t_s"][d["ref_mm"] > 0][0])  # the reference starts with the command
+            m = metrics(tool, log, test, start)
+            with open(cyc) as f:
+                m["cycles"] = json.load(f)
+            m["wall_s"] = round(time.time() - t0, 1)
+            m["gains"] = gains or "firmware defaults"
+            results[f"{test}_{mode}"] = m
+
+    print("\nThe firmware (ATmega328P ELF, float) in the virtual rig, 2 um sensor noise, errors on the "
+          "measured position:\n")
+    print("| test | controller | kp, ki, kd | RMS mm | max heat mm | max cool mm | overshoot % | settle s | "
+          "control cycles max/mean |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for test, _, _ in TESTS:
+        for mode, label in MODES:
+            m = results[f"{test}_{mode}"]
+            c = m["cycles"]
+            g = m["gains"] if isinstance(m["gains"], str) else ", ".join("%.3g" % x for x in m["gains"])
+            print(f"| {test} | {label} | {g} | {m['rms_mm']:.4f} | {m['max_heat_mm']:.4f} | {m['max_cool_mm']:.4f} | "
+                  f"{m['overshoot_pct']:.1f} | {m['settle_s']:.2f} | {c['control_cycles_max']}/{c['control_cycles_mean']:.0f} |")
+    for test, _, _ in TESTS:
+        p, f = results[f"{test}_pid"]["max_heat_mm"], results[f"{test}_ffpid"]["max_heat_mm"]
+        if p > 0:
+            print(f"\n{test}: max |error| while heating, inverse + PID vs PID alone: {100 * (1 - f / p):+.1f} % "
+                  f"(the paper: 51.4 % better on its sine)")
+    with open(os.path.join(out, "paper_tests.json"), "w") as f:
+        json.dump(results, f, indent=2)
+    plot(out)
+    print(f"\nwrote {out}/paper_tests.json and fig09..fig13.png")
+
+
+def plot(out):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    colors = {"pid": "tab:red", "ffpid": "tab:blue"}
+    figs = (("fig09", "steps", "position", "Test 1: multi-step, position (paper Fig. 9)"),
+            ("fig10", "steps", "error", "Test 1: tracking error (paper Fig. 10)"),
+            ("fig11", "steps", "voltage", "Test 1: voltage across the wire (paper Fig. 11)"),
+            ("fig12", "sine", "position", "Test 2: sine, position (paper Fig. 12)"),
+            ("fig13", "sine", "error", "Test 2: tracking error (paper Fig. 13)"))
+    for name, test, what, title in figs:
+        fig, ax = plt.subplots(figsize=(10, 4.2))
+        for mode, label in MODES:
+            d = read_log(os.path.join(out, f"{test}_{mode}.csv"))
+            y = {"position": d["d_mm"], "error": d["ref_mm"] - d["d_mm"], "voltage": d["v_V"]}[what]
+            ax.plot(d["t_s"], y, color=colors[mode], lw=1, label=label)
+        if what == "position":
+            ax.plot(d["t_s"], d["ref_mm"], "k--", lw=1, label="reference")
+        ax.set_xlabel("time, s")
+        ax.set_ylabel({"position": "displacement, mm", "error": "reference - position, mm", "voltage": "V"}[what])
+        ax.set_title(title + " - firmware in the virtual rig")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(os.path.join(out, name + ".png"), dpi=90)
+        plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()
