@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <math.h>
 #include "sma/reference.hpp"
+#include "sma/training.hpp"
 
 TEST(Reference, MultiStepIsThePapersSequence) {
   const sma::ReferenceGen<double> r(sma::Reference::multi_step());
@@ -44,4 +45,31 @@ TEST(Reference, TrajectoryInterpolatesAndRejectsBadPoints) {
   EXPECT_NEAR(r.at(20.0), 0.5, 1e-12);
   for (int k = 0; k < 20; ++k) ref.add_point(11.0 + k, 0.2);
   EXPECT_EQ(ref.n_points, sma::kMaxPoints);  // full: further points refused
+}
+
+TEST(Training, ThePapersDecayingRampWithReversalsAndAProbe) {
+  const sma::TrainingPlan p;
+  EXPECT_EQ(p.check(), nullptr);
+  // Ramps at exactly +-slope between the floor and each (decaying) peak.
+  double t = p.hold_s;
+  for (uint8_t k = 0; k < p.n_peaks; ++k) {
+    const double rise = (p.peaks[k] - p.floor_V) / p.slope;
+    EXPECT_NEAR(p.voltage_at(t + 0.5 * rise), 0.5 * (p.peaks[k] + p.floor_V), 1e-9);
+    EXPECT_NEAR(p.voltage_at(t + rise), p.peaks[k], 1e-6);
+    EXPECT_NEAR(p.voltage_at(t + 1.5 * rise), 0.5 * (p.peaks[k] + p.floor_V), 1e-9);
+    if (k > 0) {
+      EXPECT_LT(p.peaks[k], p.peaks[k - 1]);  // decaying
+    }
+    t += p.cycle_s(k);
+  }
+  EXPECT_EQ(p.voltage_at(t + 1.0), p.probe_V);  // the step probe
+  EXPECT_EQ(p.voltage_at(p.duration() + 1.0), 0.0);
+  EXPECT_NEAR(p.duration(), t + 2 * p.probe_s, 1e-9);
+  EXPECT_GT(p.duration(), 3600.0);  // the paper's slope makes it slow: 1.7 h
+  sma::TrainingPlan bad;
+  bad.slope = 0;
+  EXPECT_NE(bad.check(), nullptr);
+  bad = sma::TrainingPlan();
+  bad.peaks[3] = -1;
+  EXPECT_NE(bad.check(), nullptr);
 }

@@ -115,12 +115,12 @@ int run(int argc, char** argv) {
     else if (k == "--replay") o.replay = a.value(k);
     else if (k == "--eps0") o.eps0 = a.number(k);
     else if (k == "--tare") o.tare = true;
-    else if (k == "--train-slope") o.train.slope = a.number(k);
+    else if (k == "--train-slope") o.train.plan.slope = a.number(k);
     else if (k == "--train-peaks") o.train.peaks = parse_list(a.value(k), k);
-    else if (k == "--train-floor") o.train.floor_V = a.number(k);
-    else if (k == "--train-hold") o.train.hold_s = a.number(k);
-    else if (k == "--train-probe") o.train.probe_V = a.number(k);
-    else if (k == "--train-probe-s") o.train.probe_s = a.number(k);
+    else if (k == "--train-floor") o.train.plan.floor_V = a.number(k);
+    else if (k == "--train-hold") o.train.plan.hold_s = a.number(k);
+    else if (k == "--train-probe") o.train.plan.probe_V = a.number(k);
+    else if (k == "--train-probe-s") o.train.plan.probe_s = a.number(k);
     else throw Error("unknown option '" + k + "' (see --help)");
   }
   const int modes = !o.ref.empty() + !o.volt.empty() + !o.replay.empty();
@@ -179,10 +179,10 @@ int run(int argc, char** argv) {
     if (o.volt == "train") {
       sig = o.train.build();
       std::ostringstream d;
-      d << "training signal (paper III.B): slope " << o.train.slope << " V/s, peaks";
+      d << "training signal (paper III.B): slope " << o.train.plan.slope << " V/s, peaks";
       for (double p : o.train.peaks) d << ' ' << p;
-      d << " V, floor " << o.train.floor_V << " V, hold " << o.train.hold_s << " s, probe "
-        << o.train.probe_V << " V x " << o.train.probe_s << " s";
+      d << " V, floor " << o.train.plan.floor_V << " V, hold " << o.train.plan.hold_s << " s, probe "
+        << o.train.plan.probe_V << " V x " << o.train.plan.probe_s << " s";
       desc = d.str();
     } else if (o.volt.compare(0, 6, "const:") == 0) {
       double v;

@@ -68,10 +68,10 @@ inline std::vector<HiddenCase> hidden_effect_cases() {
 // The log of a case: the plant with the hidden effects, 2 um noise, a fixed seed per case.
 inline RigLog hidden_effect_log(const HiddenCase& c, const sma::Params& p, uint64_t seed) {
   TrainingSignal tr;  // the paper's shape, shortened to ~5 min: 8.5x its slope, 5 peaks, no probe
-  tr.slope = 0.05;
+  tr.plan.slope = 0.05;
   tr.peaks = {1.60, 1.42, 1.36, 1.31, 1.26};
-  tr.hold_s = 5.0;
-  tr.probe_V = 0.0;
+  tr.plan.hold_s = 5.0;
+  tr.plan.probe_V = 0.0;
   return simulate_log(p, c.effects, c.ramp ? tr.sample() : default_steps(), 0.002, seed);
 }
 

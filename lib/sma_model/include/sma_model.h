@@ -17,5 +17,6 @@
 #include "sma/pid.hpp"
 #include "sma/controller.hpp"
 #include "sma/reference.hpp"
+#include "sma/training.hpp"
 
 #endif  // SMA_MODEL_H
