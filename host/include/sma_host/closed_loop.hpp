@@ -8,6 +8,7 @@
 #include "sma/controller.hpp"
 #include "sma/plant.hpp"
 #include "sma/reference.hpp"
+#include "sma/sensor.hpp"
 
 namespace sma_host {
 
@@ -47,7 +48,14 @@ struct RunSetup {
   sma::Reference reference = sma::Reference::sine();
   Condition condition;
   double duration_s = 0.0;  // 0: the reference's own duration
+  // With sensor effects in model_effects, feed the controller the SensorPredictor's estimate
+  // (calibration inverted, Smith predictor for lag/delay) instead of the raw measurement.
+  bool compensate_sensor = true;
 };
+
+inline bool has_sensor_effects(const sma::Effects& fx) {
+  return fx.sensor_delay_s > 0 || fx.sensor_lag_s > 0 || fx.sensor_gain != 1.0 || fx.sensor_offset_mm != 0.0;
+}
 
 template <class T>
 std::vector<Sample> run_closed_loop(const RunSetup& s) {
@@ -57,7 +65,13 @@ std::vector<Sample> run_closed_loop(const RunSetup& s) {
   const double dt = s.config.dt;
   const double duration = s.duration_s > 0.0 ? s.duration_s : s.reference.duration();
   const long n = static_cast<long>(duration / dt + 0.5);
-  ctl.set_mode(s.mode, sma::from_double<T>(plant.measure()));
+  sma::SensorPredictor<T> sensor(ctl.inverse().curves(), s.model_params, s.model_effects, s.config.dt);
+  const bool compensate = s.compensate_sensor && has_sensor_effects(s.model_effects);
+  auto feedback = [&](double meas) {
+    const T m = sma::from_double<T>(meas);
+    return compensate ? sensor.correct(m, ctl.wire_temperature()) : m;
+  };
+  ctl.set_mode(s.mode, feedback(plant.measure()));
   std::vector<double> pending(static_cast<size_t>(s.condition.compute_delay_ticks) + 1, 0.0);
   std::vector<Sample> out;
   out.reserve(static_cast<size_t>(n));
@@ -65,7 +79,7 @@ std::vector<Sample> run_closed_loop(const RunSetup& s) {
     const double t = static_cast<double>(k) * dt;
     const double meas = plant.measure();
     const T r = ref.at(t);
-    const double v_cmd = sma::to_double(ctl.step(r, sma::from_double<T>(meas)));
+    const double v_cmd = sma::to_double(ctl.step(r, feedback(meas)));
     // Computation delay: the command reaches the heater `delay` ticks later.
     pending.push_back(v_cmd);
     const double v = pending.front();

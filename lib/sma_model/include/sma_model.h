@@ -16,6 +16,7 @@
 #include "sma/inverse.hpp"
 #include "sma/pid.hpp"
 #include "sma/controller.hpp"
+#include "sma/sensor.hpp"
 #include "sma/reference.hpp"
 #include "sma/training.hpp"
 

@@ -50,7 +50,7 @@ class Controller {
         mech_(p),
         inverse_(p, fx, with_dt(cfg.inverse, cfg.dt, cfg.v_max)),
         pid_(cfg.gains, cfg.dt),
-        thermal_step_(p, cfg.dt, fx),
+        wire_step_(inverse_.thermal(), p, cfg.dt, fx),
         T_wire_(from_double<T>(p.T_amb + fx.ambient_offset_K)),
         v_max_(from_double<T>(cfg.v_max)),
         valid_(p.check() == nullptr && fx.check() == nullptr && cfg.check() == nullptr) {}
@@ -84,11 +84,13 @@ class Controller {
   const ControllerConfig& config() const { return cfg_; }
 
   // One tick: reference and measured displacement (mm) -> voltage across the wire, 0..V_max.
-  // The wire temperature estimate advances with the voltage actually commanded (eq 1,
-  // exact zero-order-hold step): what the safety limit watches.
+  // The wire temperature estimate advances with the voltage actually commanded (eq 1 with the
+  // model's effects, WireStep): what the safety limit and the PID's branch limits watch.
   T step(T ref, T measured) {
     v_ = compute(ref, measured);
-    T_wire_ = thermal_step_(T_wire_, v_);
+    // The fraction for a phase-dependent resistance comes from the measurement; latent heat
+    // is left out of the estimate (d(eps)/dt of a noisy measurement would be all noise).
+    T_wire_ = wire_step_(T_wire_, v_, is_finite(measured) ? mech_.fraction(measured) : T(0));
     return v_;
   }
 
@@ -106,6 +108,9 @@ class Controller {
     c.v_max = v_max;
     return c;
   }
+  // The voltage that holds the estimated wire temperature (eq 17, dT/dt = 0).
+  T thermal_hold() const { return inverse_.thermal().voltage_for(T_wire_, T(0)); }
+
   T compute(T ref, T measured) {
     v1_ = T(0);
     v2_ = T(0);
@@ -119,11 +124,22 @@ class Controller {
       case Mode::Feedforward:
         v1_ = min(inverse_.step(ref), v_max_);
         break;
-      case Mode::FeedforwardPid:
+      case Mode::FeedforwardPid: {
         v1_ = min(inverse_.step(ref), v_max_);
-        // PID limits that keep V1 + V2 inside 0..V_max: its anti-windup sees eq 18's clamp.
-        v2_ = pid_.step(ref - measured, measured, -v1_, v_max_ - v1_);
+        // PID limits: V1 + V2 inside 0..V_max (eq 18; the anti-windup sees the clamp), and
+        // never against the branch the reference is on. While it heats, the PID may slow the
+        // heating but not cool the wire: cooling opens a minor loop whose rise (eqs 5-6) moves
+        // the wire up, which the PID would answer by cooling more, a runaway to T_MSi. While
+        // it cools, the PID may not heat: heating from a cooling branch only moves along a
+        // flat stage (eq 4). V_hold (eq 17 with dT/dt = 0) keeps the estimated wire
+        // temperature where it is.
+        const T v_hold = min(thermal_hold(), v_max_);
+        T lo = -v1_, hi = v_max_ - v1_;
+        if (inverse_.heating()) lo = max(lo, v_hold - v1_);
+        else hi = min(hi, max(v_hold - v1_, lo));
+        v2_ = pid_.step(ref - measured, measured, lo, hi);
         break;
+      }
       default: return T(0);
     }
     const T v = clamp(v1_ + v2_, T(0), v_max_);
@@ -134,7 +150,7 @@ class Controller {
   Mechanics<T> mech_;
   InverseModel<T> inverse_;
   Pid<T> pid_;
-  ThermalStep<T> thermal_step_;
+  WireStep<T> wire_step_;
   T T_wire_;
   T v_max_;
   bool valid_;

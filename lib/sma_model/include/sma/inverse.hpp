@@ -16,6 +16,9 @@
 // dT_f/dt + (T_f - T_m) / track_s: the path's slope plus a pull back onto it. With T_m = T_f
 // this is exactly eq 17. Because T_m is driven by V1 alone, V1 stays a pure function of the
 // reference, a feedforward in the strict sense: it never fights the PID's heat.
+// Fitted thermal effects (effects.hpp) enter both eq 17 and the model wire (issue 7): a wire
+// that loses more heat when hot, changes resistance with phase or absorbs latent heat gets the
+// voltage its own power balance needs.
 #ifndef SMA_INVERSE_HPP
 #define SMA_INVERSE_HPP
 
@@ -47,7 +50,7 @@ class InverseModel {
         thermal_(p, fx),
         mech_(p),
         memory_(curves_, from_double<T>(p.T_amb), T(0)),
-        wire_step_(p, cfg.dt, fx),
+        wire_step_(thermal_, p, cfg.dt, fx),
         v_max_(from_double<T>(cfg.v_max)),
         inv_dt_(from_double<T>(1.0 / cfg.dt)),
         alpha_(from_double<T>(1.0 - ::exp(-cfg.dt / cfg.rate_filter_s))),
@@ -63,6 +66,7 @@ class InverseModel {
     T_d_ = T0;
     T_f_ = T0;
     T_m_ = T0;
+    eps_f_ = memory_.eps();
     u_prev_ = mech_.displacement(memory_.eps());
     u_extreme_ = u_prev_;
     rate_ = T(0);
@@ -93,17 +97,25 @@ class InverseModel {
       T_new = curves_.cool_temperature(loop, eps_d);  // eq 16, this loop's T_MSi
       T_new = min(T_new, T_d_);
     }
-    const T eps_before = memory_.eps();
     memory_.update(T_new);
     T_d_ = T_new;
     // The filtered path T_f and its exact slope.
     rate_ = (T_d_ - T_f_) * inv_tau_;
     T_f_ = T_f_ + alpha_ * (T_d_ - T_f_);
-    const T deps_dt = (memory_.eps() - eps_before) * inv_dt_;
+    // With non-linear thermal effects: the fraction along the filtered path, on the branch the
+    // memory is on, i.e. what the wire transforms as it follows T_f (latent heat,
+    // phase-dependent resistance). The paper's eq 1 does not need it: skip the work.
+    T deps_dt = T(0);
+    if (!thermal_.plain) {
+      const T eps_f = heating_ ? max(curves_.eps_heat(T_f_), eps_f_)
+                               : min(curves_.eps_cool(memory_.loop(), T_f_), eps_f_);
+      deps_dt = (eps_f - eps_f_) * inv_dt_;
+      eps_f_ = eps_f;
+    }
     const T slope = rate_ + (T_f_ - T_m_) * inv_track_;
-    T v1 = min(thermal_.voltage_for(T_m_, slope, memory_.eps(), deps_dt), v_max_);  // eq 17
+    T v1 = min(thermal_.voltage_for(T_m_, slope, eps_f_, deps_dt), v_max_);  // eq 17
     if (!is_finite(v1)) v1 = T(0);
-    T_m_ = wire_step_(T_m_, v1);
+    T_m_ = wire_step_(T_m_, v1, eps_f_, deps_dt);  // the power balance eq 17 inverted
     return v1;
   }
 
@@ -124,10 +136,10 @@ class InverseModel {
   Thermal<T> thermal_;
   Mechanics<T> mech_;
   Hysteresis<T> memory_;
-  ThermalStep<T> wire_step_;
+  WireStep<T> wire_step_;
   T v_max_;
   T inv_dt_, alpha_, inv_tau_, inv_track_, deadband_;
-  T T_d_, T_f_, T_m_, u_prev_, u_extreme_, rate_;
+  T T_d_, T_f_, T_m_, eps_f_, u_prev_, u_extreme_, rate_;
   bool heating_;
 };
 

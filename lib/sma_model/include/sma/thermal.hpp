@@ -85,6 +85,26 @@ struct ThermalStep {
   T operator()(T Tw, T V) const { return T_a + a * (Tw - T_a) + b * V * V; }
 };
 
+// One tick of the wire's temperature under a held voltage, with the same power balance as
+// Thermal: exact (ThermalStep) for the paper's linear eq 1, one Euler step of the full balance
+// with non-linear effects (dt = 10 ms << tau = 4 s). Shared by the feedforward's model wire and
+// the controller's temperature estimate, so that both agree with what eq 17 inverts.
+template <class T>
+struct WireStep {
+  const Thermal<T>* th;  // owned by the caller (the inverse model)
+  ThermalStep<T> exact;
+  T dt;
+
+  WireStep(const Thermal<T>& thermal, const Params& p, double dt_s, const Effects& fx)
+      : th(&thermal), exact(p, dt_s, fx), dt(from_double<T>(dt_s)) {}
+
+  // eps: austenite fraction (phase-dependent resistance); deps_dt: its rate (latent heat).
+  T operator()(T Tw, T V, T eps = T(0), T deps_dt = T(0)) const {
+    if (th->plain) return exact(Tw, V);
+    return Tw + (th->rate(Tw, V, eps) - th->L * deps_dt * th->inv_C) * dt;
+  }
+};
+
 }  // namespace sma
 
 #endif  // SMA_THERMAL_HPP
