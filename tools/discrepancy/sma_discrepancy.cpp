@@ -158,7 +158,11 @@ int run(int argc, char** argv) {
         << ", \"rms_mm_heldout\": " << number(d.steps[i].candidates[k].rms_test) << "}";
     j << "]";
   }
-  j << "\n  ],\n  \"warnings\": [";
+  j << "\n  ],\n  \"rms_mm_heldout_final\": " << number(d.rms_test_final) << ",\n  \"rejected\": [";
+  for (size_t k = 0; k < d.rejected.size(); ++k)
+    j << (k ? ", " : "") << "{\"name\": " << quote(d.rejected[k].name)
+      << ", \"rms_mm_heldout\": " << number(d.rejected[k].rms_test) << "}";
+  j << "],\n  \"warnings\": [";
   for (size_t i = 0; i < warnings.size(); ++i) j << (i ? ", " : "") << quote(warnings[i]);
   j << "]\n}\n";
   write_file(out + "/report.json", j.str());
@@ -207,8 +211,13 @@ int run(int argc, char** argv) {
      << " s";
   if (file.dropped) md << " (" << file.dropped << " bad rows dropped)";
   md << "; sensor noise estimated at " << num(d.noise_mm * 1000) << " um RMS.\n\n"
-     << "| | RMS gap, mm |\n|---|---|\n| paper's model | " << num(d.rms_nominal) << " |\n| with the effects below | "
+     << "| | RMS gap, mm |\n|---|---|\n| " << (params_path.empty() ? "paper's model" : "starting model (" + params_path + ")")
+     << " | " << num(d.rms_nominal) << " |\n| with the effects below | "
      << num(d.rms_final) << " |\n\n";
+  if (!d.rejected.empty())
+    md << "Stopped: the best remaining candidate, `" << d.rejected[0].name << "`, would change the held-out RMS from "
+       << num(d.rms_test_final) << " to " << num(d.rejected[0].rms_test) << " mm, less than the " << num(100 * opt.min_gain)
+       << " % needed (the noise is " << num(d.noise_mm) << " mm).\n\n";
   if (d.steps.empty()) {
     md << "No effect of the vocabulary shrinks the gap on held-out parts of this log by " << num(100 * opt.min_gain)
        << " % or more: nothing was added.\n\n";

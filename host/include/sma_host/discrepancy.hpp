@@ -316,6 +316,8 @@ struct Diagnosis {
   std::vector<Step> steps;
   std::vector<FittedEffect> effects;      // final, jointly refitted
   std::vector<double> nominal, corrected; // predictions
+  std::vector<CandidateScore> rejected;   // the last round, when nothing was added
+  double rms_test_final = 0;              // held-out RMS of the final model
 };
 
 // BIC of a held-out residual with k extra parameters; n_eff discounts the autocorrelation of
@@ -371,7 +373,10 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
     // Both tests on the held-out blocks; BIC charges the winner for its extra parameters.
     const bool clear_gain = win.rms_test < (1.0 - o.min_gain) * current.rms_test;
     const bool bic_better = bic(win.rms_test, n_eff, win.fit.effects.back().spec->n) < bic(current.rms_test, n_eff, 0);
-    if (!clear_gain || !bic_better) break;
+    if (!clear_gain || !bic_better) {
+      d.rejected = scores;
+      break;
+    }
     Step step;
     step.added = win.fit.effects.back();
     step.rms_before = current.rms_all;
@@ -383,6 +388,7 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
     current = win.fit;
   }
   d.effects = current.effects;
+  d.rms_test_final = current.rms_test;
   d.corrected = predict(p, effects_of(current.effects), log);
   d.rms_final = rms_on(d.corrected, log, all);
   return d;
