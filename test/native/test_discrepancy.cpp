@@ -117,3 +117,27 @@ TEST(Residuals, WhiteNoiseHasNoMemoryAndAMissingEffectHas) {
   EXPECT_NEAR(reg[3].share + reg[4].share, 1.0, 1e-12);
   EXPECT_GT(fmax(reg[0].rms_mm, reg[1].rms_mm), 2 * reg[2].rms_mm);
 }
+
+TEST(Discrepancy, RefittingTheBaseRecoversAnEffectAFitAbsorbed) {
+  // A base fitted on a quasi-static ramp took the wire's extra convection as a larger h
+  // (234 instead of 190). On a log with holds at several voltages, refitting h jointly with
+  // each candidate names the convection and puts h back; with the base frozen, the workflow
+  // cannot close the gap (it reaches for the wrong effect).
+  sma::Params truth;
+  truth.h = 190;
+  sma::Effects fx;
+  fx.convection_beta_per_K = 0.006;
+  const RigLog log = simulate_log(truth, fx, default_steps(), 0.002, 3);
+  sma::Params start;
+  start.h = 234;
+  const Diagnosis frozen = diagnose(start, log);
+  EXPECT_GT(frozen.rms_final, 5 * frozen.noise_mm);
+  Options o;
+  o.refit_base = {find_base("h")};
+  const Diagnosis d = diagnose(start, log, o);
+  ASSERT_EQ(d.effects.size(), 1u);
+  EXPECT_STREQ(d.effects[0].spec->name, "convection_nonlinear");
+  EXPECT_NEAR(d.effects[0].value[0], 0.006, 0.0005);
+  EXPECT_NEAR(d.params.h, 190.0, 5.0);
+  EXPECT_LT(d.rms_final, 1.2 * d.noise_mm);
+}

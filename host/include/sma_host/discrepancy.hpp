@@ -73,6 +73,28 @@ inline const std::vector<EffectSpec>& vocabulary() {
   return v;
 }
 
+// Base parameters the workflow may refit jointly with the effects (Options::refit_base): the
+// ones a fit on a quasi-static log can trade against a missing effect.
+struct BaseSpec {
+  const char* name;
+  double sma::Params::*field;
+  double scale;  // typical change
+};
+
+inline const std::vector<BaseSpec>& refittable_base() {
+  static const std::vector<BaseSpec> v = {
+      {"h", &sma::Params::h, 20.0},       {"T_AS", &sma::Params::T_AS, 2.0}, {"T_AF", &sma::Params::T_AF, 2.0},
+      {"T_MF", &sma::Params::T_MF, 2.0},  {"g", &sma::Params::g, 0.05},     {"T_amb", &sma::Params::T_amb, 2.0},
+  };
+  return v;
+}
+
+inline const BaseSpec* find_base(const std::string& name) {
+  for (const BaseSpec& b : refittable_base())
+    if (name == b.name) return &b;
+  return nullptr;
+}
+
 inline const EffectSpec* find_effect(const std::string& name) {
   for (const EffectSpec& e : vocabulary())
     if (name == e.name) return &e;
@@ -154,6 +176,9 @@ struct Options {
   double ambiguity = 0.05;  // runner-ups within this fraction of the winner's RMS are look-alikes
   int max_effects = 3;
   int max_residuals = 6000; // residuals per fit (the log is strided down to this)
+  // Base parameters refitted jointly with every candidate (names of refittable_base()); empty:
+  // the base model stays as given and only the effects are fitted.
+  std::vector<const BaseSpec*> refit_base;
 };
 
 struct Split {
@@ -196,6 +221,8 @@ inline sma::Effects effects_of(const std::vector<FittedEffect>& list) {
 
 struct FitOutcome {
   std::vector<FittedEffect> effects;
+  sma::Params params;             // the base model (refitted when Options::refit_base is set)
+  std::vector<double> base_ci95;  // 95 % half-widths of the refitted base parameters
   double rms_train = INFINITY, rms_test = INFINITY, rms_all = INFINITY;
   double max_corr = 0;            // largest |correlation| between two fitted parameters
   std::string corr_pair;          // which two
@@ -216,6 +243,7 @@ struct Residuals {
   const std::vector<size_t>* idx;
   std::vector<FittedEffect> slots;  // value[] overwritten from x
   int n_in;
+  const std::vector<const BaseSpec*>* base;  // refitted base parameters, after the effects in x
 
   int inputs() const { return n_in; }
   int values() const { return static_cast<int>(idx->size()); }
@@ -228,8 +256,19 @@ struct Residuals {
         f.value[i] = sma::clamp(x[j] * f.spec->scale[i], f.spec->lo[i], f.spec->hi[i]);
     return effects_of(s);
   }
+  sma::Params params(const Eigen::VectorXd& x) const {
+    sma::Params q = *p;
+    long j = n_in - static_cast<long>(base->size());
+    for (const BaseSpec* b : *base) q.*(b->field) = p->*(b->field) + x[j++] * b->scale;
+    return q;
+  }
   int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& r) const {
-    const std::vector<double> pred = predict(*p, effects(x), *log);
+    const sma::Params q = params(x);
+    if (q.check() != nullptr) {  // a non-physical trial: a large, smooth penalty
+      r.setConstant(1.0);
+      return 0;
+    }
+    const std::vector<double> pred = predict(q, effects(x), *log);
     for (size_t i = 0; i < idx->size(); ++i) r[static_cast<long>(i)] = log->d[(*idx)[i]] - pred[(*idx)[i]];
     return 0;
   }
@@ -239,13 +278,15 @@ struct Residuals {
 
 // Fit the parameters of `effects` (their values are starting points) on the training blocks.
 inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> effects, const RigLog& log,
-                              const Split& split) {
-  detail::Residuals f{&p, &log, &split.train, effects, 0};
+                              const Split& split, const std::vector<const BaseSpec*>& base = {}) {
+  detail::Residuals f{&p, &log, &split.train, effects, 0, &base};
   for (const FittedEffect& e : effects) f.n_in += e.spec->n;
+  f.n_in += static_cast<int>(base.size());
   Eigen::VectorXd x(f.n_in);
   int j = 0;
   for (const FittedEffect& e : effects)
     for (int i = 0; i < e.spec->n; ++i) x[j++] = e.value[i] / e.spec->scale[i];
+  for (size_t b = 0; b < base.size(); ++b) x[j++] = 0.0;  // offsets from the given base model
   if (f.n_in > 0) {
     Eigen::NumericalDiff<detail::Residuals> nd(f, 1e-4);
     Eigen::LevenbergMarquardt<Eigen::NumericalDiff<detail::Residuals>> lm(nd);
@@ -254,11 +295,13 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
     lm.minimize(x);
   }
   FitOutcome out;
+  out.params = f.params(x);
+  if (out.params.check() != nullptr) out.params = p;
   j = 0;
   for (FittedEffect& e : effects)
     for (int i = 0; i < e.spec->n; ++i, ++j)
       e.value[i] = sma::clamp(x[j] * e.spec->scale[i], e.spec->lo[i], e.spec->hi[i]);
-  const std::vector<double> pred = predict(p, effects_of(effects), log);
+  const std::vector<double> pred = predict(out.params, effects_of(effects), log);
   out.rms_train = rms_on(pred, log, split.train);
   out.rms_test = rms_on(pred, log, split.test);
   std::vector<size_t> all(log.size());
@@ -282,6 +325,8 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
     j = 0;
     for (FittedEffect& e : effects)
       for (int i = 0; i < e.spec->n; ++i, ++j) e.ci95[i] = 1.96 * sqrt(fmax(cov(j, j), 0.0)) * e.spec->scale[i];
+    for (size_t b = 0; b < base.size(); ++b, ++j)
+      out.base_ci95.push_back(1.96 * sqrt(fmax(cov(j, j), 0.0)) * base[b]->scale);
     for (int a = 0; a < f.n_in; ++a)
       for (int b = a + 1; b < f.n_in; ++b) {
         const double c = cov(a, b) / sqrt(fmax(cov(a, a) * cov(b, b), 1e-300));
@@ -317,6 +362,8 @@ struct Diagnosis {
   std::vector<FittedEffect> effects;      // final, jointly refitted
   std::vector<double> nominal, corrected; // predictions
   std::vector<CandidateScore> rejected;   // the last round, when nothing was added
+  sma::Params params;                     // final base model (refitted if Options::refit_base)
+  std::vector<double> base_ci95;
   double rms_test_final = 0;              // held-out RMS of the final model
 };
 
@@ -348,7 +395,7 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
   std::vector<size_t> all(log.size());
   for (size_t k = 0; k < all.size(); ++k) all[k] = k;
   d.rms_nominal = rms_on(d.nominal, log, all);
-  FitOutcome current = fit_effects(p, present_effects(start), log, split);
+  FitOutcome current = fit_effects(p, present_effects(start), log, split, o.refit_base);
   while (static_cast<int>(current.effects.size()) < o.max_effects) {
     if (current.rms_test < 1.15 * d.noise_mm) break;  // nothing left above the noise
     std::vector<CandidateScore> scores;
@@ -361,7 +408,7 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
       for (int s = 0; s < spec.n_starts; ++s) {
         std::vector<FittedEffect> trial = current.effects;
         trial.push_back({&spec, {spec.start[s][0], spec.start[s][1]}, {0, 0}});
-        FitOutcome f = fit_effects(p, trial, log, split);
+        FitOutcome f = fit_effects(p, trial, log, split, o.refit_base);
         if (f.rms_test < best.rms_test) best = f;
       }
       scores.push_back({spec.name, best.rms_test, best});
@@ -388,8 +435,10 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
     current = win.fit;
   }
   d.effects = current.effects;
+  d.params = current.params;
+  d.base_ci95 = current.base_ci95;
   d.rms_test_final = current.rms_test;
-  d.corrected = predict(p, effects_of(current.effects), log);
+  d.corrected = predict(current.params, effects_of(current.effects), log);
   d.rms_final = rms_on(d.corrected, log, all);
   return d;
 }
