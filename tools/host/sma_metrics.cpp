@@ -47,11 +47,4 @@ int run(int argc, char** argv) {
 }
 }  // namespace
 
-int main(int argc, char** argv) {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "sma_metrics: " << e.what() << "\n";
-    return 1;
-  }
-}
+int main(int argc, char** argv) { return sma_tools::guarded_main("sma_metrics", argc, argv, run); }

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <exception>
+#include <iostream>
 #include <string>
 #include <vector>
 #include "error.hpp"
@@ -49,6 +51,18 @@ inline std::vector<std::string> split_names(const std::string& s) {
     start = comma + 1;
   }
   return out;
+}
+
+// main() of a host program: every failure is an exception whose message names the file, line
+// and problem; print it as "NAME: error: ..." and exit 1.
+template <class Run>
+int guarded_main(const char* name, int argc, char** argv, Run run) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << name << ": error: " << e.what() << "\n";
+    return 1;
+  }
 }
 
 }  // namespace sma_tools
