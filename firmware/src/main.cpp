@@ -16,6 +16,23 @@
 #include "sma/controller.hpp"
 #include "sma/reference.hpp"
 #include "sma/safety.hpp"
+#include "sma/storage.hpp"
+#include "sma/training.hpp"
+// Features that do not all fit in 32 KB of flash (see firmware/README.md):
+//   FW_MODEL (default on for float): model parameters in EEPROM (pbegin/pset/pcommit/pget/pinfo)
+//   FW_TRAIN (-DSMA_FIRMWARE_TRAIN): the built-in training run (train)
+#ifndef FW_MODEL
+#ifdef SMA_FIRMWARE_FIXED
+#define FW_MODEL 0
+#else
+#define FW_MODEL 1
+#endif
+#endif
+#ifdef SMA_FIRMWARE_TRAIN
+#define FW_TRAIN 1
+#else
+#define FW_TRAIN 0
+#endif
 #ifdef SMA_FIRMWARE_FIXED
 #include "sma/fixed.hpp"
 typedef sma::Fixed Scalar;
@@ -27,6 +44,7 @@ typedef float Scalar;
 
 #include <Arduino.h>
 #include <new.h>
+#include <avr/eeprom.h>
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include <avr/wdt.h>
@@ -124,11 +142,16 @@ union CtlStore {
   ~CtlStore() {}
   Ctl obj;
 };
-union GenStore {  // the generator, or the Params while the models are built
+struct Training {      // the training signal being played (train)
+  sma::TrainingPlan plan;
+  uint32_t end_ticks;  // its length in ticks
+};
+union GenStore {  // the generator, or the Params while the models are built, or a training plan
   GenStore() {}
   ~GenStore() {}
   Gen obj;
   sma::Params params;
+  Training train;
 };
 static CtlStore g_ctl_store;
 static GenStore g_gen_store;
@@ -136,15 +159,57 @@ static GenStore g_gen_store;
 #define g_gen (g_gen_store.obj)
 
 // (Re)starts the generator on the console's reference (the old one is trivially destructible).
+static bool g_training = false;   // g_gen_store holds a Training (not a Gen)
 static void __attribute__((noinline)) start_reference() {
+  g_training = false;
   const sma::Reference r = g_state.reference();
   new (&g_gen_store.obj) Gen(r);
 }
 
+// ---- model parameters in EEPROM (sma/storage.hpp): two slots, CRC, commit mark ----------------
+// eeprom_update_byte waits for the previous write (3.4 ms each): the watchdog is fed between
+// bytes. Writing happens only with the heater off (the console refuses otherwise).
+struct AvrEeprom {
+  uint8_t read(uint16_t a) const {
+    return eeprom_read_byte(reinterpret_cast<const uint8_t*>(static_cast<uintptr_t>(a)));
+  }
+  void write(uint16_t a, uint8_t v) {
+    wdt_reset();
+    eeprom_update_byte(reinterpret_cast<uint8_t*>(static_cast<uintptr_t>(a)), v);
+  }
+};
+static sma::storage::Store<AvrEeprom> g_store;
+
+// The one place the controller is constructed (its constructor is large: inlined twice it
+// would cost kilobytes of flash).
+// Interrupts off meanwhile: this is the deepest stack of the firmware, no ISR frame on top.
+static void __attribute__((noinline)) construct_ctl(const sma::Params& p, const sma::Effects& fx) {
+  const uint8_t sreg = SREG;
+  cli();
+  new (&g_ctl_store.obj) Ctl(p, fx, make_cfg());
+  SREG = sreg;
+}
+
+// A set is valid when the controller built from it is (Controller::valid(): Params::check(),
+// Effects::check()). Reading check()'s messages would keep ~600 B of them in RAM.
+struct FwValidator {
+  const char* operator()(const sma::Params& p, const sma::Effects& fx, uint8_t& bad_key) const {
+    bad_key = sma::storage::kNoKey;
+    construct_ctl(p, fx);
+    return g_ctl.valid() ? nullptr : SMA_F("fails Params/Effects check()");
+  }
+};
+
+// The controller from the active set in EEPROM, or the paper's values when there is none.
+// The Params live in the generator's storage meanwhile (call start_reference() afterwards).
 static void __attribute__((noinline)) build_models() {
-  sma::Params* p = new (&g_gen_store.params) sma::Params();
-  const sma::Effects fx;
-  new (&g_ctl_store.obj) Ctl(*p, fx, make_cfg());
+  sma::Params* p = &g_gen_store.params;
+  sma::Effects fx;
+  if (!FW_MODEL || g_store.load(*p, fx, FwValidator()) < 0) {  // builds the controller from each candidate
+    p = new (&g_gen_store.params) sma::Params();
+    new (&fx) sma::Effects();
+    construct_ctl(*p, fx);
+  }
   p->~Params();
 }
 
@@ -157,6 +222,7 @@ static uint32_t g_ticks = 0;      // ticks processed
 static uint32_t g_run_start = 0;  // tick at which the running reference started
 static uint16_t g_run_seen = 0;
 static uint16_t g_overruns = 0;   // ticks that found the previous one still pending
+static bool g_train_done = false; // "# train done" is due
 static float g_last_mm = 0.0f;
 static bool g_header_due = false;
 
@@ -217,6 +283,85 @@ static void send_reply() {
 }
 
 // ---- console -----------------------------------------------------------------------------------
+// After a long EEPROM operation: the ticks it blocked are not overruns (heater off meanwhile).
+// (A tick raised meanwhile stays pending and runs next.)
+static void resync_ticks() {
+  cli();
+  g_ticks = g_tick_pending ? g_ticks_isr - 1u : g_ticks_isr;
+  sei();
+}
+
+// The model commands (sma/storage.hpp via con::model_command) on `p`, a scratch Params.
+// pcommit builds the controller from the staged set (FwValidator); refused, the controller is
+// rebuilt from the active set.
+static void __attribute__((noinline)) model_op(const con::Command& c, sma::Params* p) {
+  new (p) sma::Params();  // the defaults (pbegin and pget read them when no set is active)
+  sma::Effects fx;
+  if (!con::model_command(c, g_store, *p, fx, g_reply, FwValidator()) && c.op == con::Op::PCommit)
+    build_models();
+}
+
+// A model command waits here for loop() to run it at the top of the stack: pcommit builds the
+// controller (the deepest stack of the firmware) and must not do it below the console's frames.
+struct PendingModelOp {
+  con::Op op;
+  uint8_t key;
+  float a;
+};
+static PendingModelOp g_model_op = {con::Op::Empty, 0, 0.0f};
+
+// pbegin / pcommit need the heater off (the console refuses them otherwise): their scratch is
+// the generator's storage, the reference restarts afterwards.
+static void __attribute__((noinline)) model_write(const con::Command& c) {
+  model_op(c, &g_gen_store.params);
+  g_ctl.set_gains(g_state.gains());
+  start_reference();
+}
+// pset / pget / pinfo / pabort may run while heating: their scratch is on the stack.
+static void __attribute__((noinline)) model_read(const con::Command& c) {
+  union Scratch {
+    Scratch() {}
+    sma::Params p;
+  } u;
+  model_op(c, &u.p);
+}
+static void __attribute__((noinline)) model_exec() {
+  con::Command c;
+  c.op = g_model_op.op;
+  c.key = g_model_op.key;
+  c.a = g_model_op.a;
+  g_model_op.op = con::Op::Empty;
+  if (c.op == con::Op::PBegin || c.op == con::Op::PCommit) model_write(c);
+  else model_read(c);
+  if (c.op == con::Op::PBegin || c.op == con::Op::PCommit || c.op == con::Op::PSet) resync_ticks();
+  send_reply();
+}
+
+static void __attribute__((noinline)) start_training(double slope) {
+  sma::TrainingPlan* plan = new (&g_gen_store.train.plan) sma::TrainingPlan();
+  if (slope > 0.0) plan->slope = slope;
+  g_gen_store.train.end_ticks = static_cast<uint32_t>(plan->duration() * RIG_TICK_HZ) + 1u;
+  g_training = true;
+  g_run_start = g_ticks;
+  g_reply.put(' ');
+  g_reply.put_fixed(plan->duration(), 1);
+  g_reply.put_f(SMA_F(" s"));
+}
+
+// The training plan's storage back to a generator once training has ended (any way).
+static void __attribute__((noinline)) end_training_if_over() {
+  if (g_training && !g_state.training) {
+    g_training = false;
+    start_reference();
+  }
+  if (g_train_done) {
+    g_train_done = false;
+    g_reply.clear();
+    g_reply.put_f(SMA_F("# train done: heater off"));
+    send_reply();
+  }
+}
+
 // Makes the controller and the latch follow the console state after an OK.
 static void __attribute__((noinline)) sync_state(const con::Command& c, bool tele_before) {
   if (c.op == con::Op::Stop) g_safety.clear();
@@ -231,14 +376,24 @@ static void __attribute__((noinline)) sync_state(const con::Command& c, bool tel
     g_run_start = g_ticks;
   }
   if (c.op == con::Op::Tele && c.on && !tele_before) g_header_due = true;  // once per start
+  if (FW_TRAIN && c.op == con::Op::Train) start_training(c.a);
 }
 
 static void __attribute__((noinline)) handle_line_status(con::LineBuffer::Status st) {
   if (st == con::LineBuffer::Status::Line) {
     con::Command c;
     const bool tele_before = g_state.tele;
-    if (con::execute(g_line.line(), g_state, g_safety.fault(), g_reply, con::Limits(), &c)) {
+    con::Limits lim;
+    lim.model = FW_MODEL;
+    lim.train = FW_TRAIN;
+    if (con::execute(g_line.line(), g_state, g_safety.fault(), g_reply, lim, &c)) {
       if (c.op == con::Op::Status) con::status_line(g_reply, g_state, g_live);
+      if (FW_MODEL && con::is_model_op(c.op)) {  // run by loop(), which replies
+        g_model_op.op = c.op;
+        g_model_op.key = c.key;
+        g_model_op.a = static_cast<float>(c.a);
+        return;
+      }
       sync_state(c, tele_before);
     }
   } else {
@@ -262,6 +417,10 @@ static void __attribute__((noinline)) poll_serial() {
 }
 
 // ---- the tick ----------------------------------------------------------------------------------
+static float __attribute__((noinline)) training_voltage(float t) {
+  return static_cast<float>(g_gen_store.train.plan.voltage_at(t));
+}
+
 static void __attribute__((noinline)) control_tick() {
   GPIOR0 = 1;
   // Sensor: average of the samples since the last tick.
@@ -283,7 +442,19 @@ static void __attribute__((noinline)) control_tick() {
 
   // Reference and controller.
   const float t_ref = static_cast<float>(g_ticks - g_run_start) * (1.0f / RIG_TICK_HZ);
-  const Scalar ref = g_gen.at(t_ref);
+  Scalar ref = Scalar(0);
+  if (FW_TRAIN && g_training) {  // the training signal, open loop (the latch below still applies)
+    if (g_ticks - g_run_start >= g_gen_store.train.end_ticks) {
+      if (g_state.training) g_train_done = true;
+      g_state.training = false;
+      g_state.heat = false;
+      g_ctl.set_mode(sma::Mode::Off, sma::from_double<Scalar>(mm));
+    } else {
+      g_ctl.set_voltage(sma::from_double<Scalar>(training_voltage(t_ref)));
+    }
+  } else {
+    ref = g_gen.at(t_ref);
+  }
   const Scalar v_cmd = g_ctl.step(ref, sma::from_double<Scalar>(mm));
 
   // Safety latch.
@@ -297,6 +468,7 @@ static void __attribute__((noinline)) control_tick() {
   const float v = static_cast<float>(g_safety.gate(in));
   if (g_safety.tripped() && g_state.heat) {
     g_state.heat = false;
+    g_state.training = false;
     g_ctl.set_mode(sma::Mode::Off, sma::from_double<Scalar>(mm));
   }
   const uint16_t counts = pwm_write(v);
@@ -363,6 +535,8 @@ void setup() {
 
 void loop() {
   poll_serial();
+  if (FW_MODEL && g_model_op.op != con::Op::Empty) model_exec();
+  if (FW_TRAIN) end_training_if_over();
   if (g_tick_pending) {
     cli();
     const uint32_t raised = g_ticks_isr;
@@ -376,4 +550,5 @@ void loop() {
     }
     control_tick();
   }
+  if (FW_TRAIN) end_training_if_over();
 }

@@ -3,6 +3,8 @@
 // template instantiated for the scalar under test, so that STL use, exceptions, 16-bit-int
 // overflows or conversion warnings on AVR fail the build.
 #include <sma_model.h>
+#include <sma/console.hpp>
+#include <sma/safety.hpp>
 
 #if defined(SMA_AVR_SCALAR_fixed)
 typedef sma::Fixed Scalar;
@@ -30,5 +32,12 @@ int main() {
   g_out = static_cast<float>(sma::to_double(v + h.eps() + th.steady_state(Scalar(1)) +
                                             ts(Scalar(30), Scalar(1)) + m.displacement(Scalar(0.5)) +
                                             ctl.wire_temperature()));
-  return p.check() == nullptr ? 0 : 1;
+  // The firmware-side headers: the console protocol and the safety latch.
+  sma::console::State state;
+  sma::console::Reply reply;
+  sma::console::execute("pos 0.4", state, sma::Fault::None, reply);
+  sma::Safety safety;
+  sma::SensorPredictor<Scalar> sensor(curves, p, fx, 0.01);
+  g_out = g_out + static_cast<float>(sma::to_double(sensor.correct(Scalar(0.3), Scalar(40))));
+  return (p.check() == nullptr && reply.len > 0) ? 0 : 1;
 }

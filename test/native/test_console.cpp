@@ -597,3 +597,191 @@ TEST(ConsoleFuzz, HundredThousandLinesNeverBreakTheState) {
   EXPECT_GT(n_err, 10000);
   EXPECT_GT(n_line_err, 1000);
 }
+
+// ---- model commands (pbegin pset pget pcommit pabort pinfo) and train --------------------------
+namespace {
+
+struct ModelMem {
+  uint8_t b[1024];
+  ModelMem() { memset(b, 0xFF, sizeof b); }
+};
+struct ModelEeprom {
+  ModelMem* m = nullptr;
+  uint8_t read(uint16_t a) const { return m->b[a]; }
+  void write(uint16_t a, uint8_t v) { m->b[a] = v; }
+};
+
+// The console as the firmware runs it: execute(), then model_command() for the model ops.
+struct Board {
+  ModelMem mem;
+  sma::storage::Store<ModelEeprom> store;
+  State s;
+  Reply r;
+  bool rebuilt = false;
+  bool ok = false;
+  Board() {
+    ModelEeprom e;
+    e.m = &mem;
+    store = sma::storage::Store<ModelEeprom>(e);
+    sma::Params p;
+    sma::Effects fx;
+    store.load(p, fx);
+  }
+  std::string run(const char* line) {
+    con::Command c;
+    ok = con::execute(line, s, Fault::None, r, con::Limits(), &c);
+    rebuilt = false;
+    if (ok && con::is_model_op(c.op)) {
+      sma::Params p;  // the defaults, as the firmware provides them
+      sma::Effects fx;
+      rebuilt = con::model_command(c, store, p, fx, r);
+      ok = r.text[0] == 'O';
+    }
+    return std::string(r.text);
+  }
+};
+
+}  // namespace
+
+TEST(ConsoleModel, PinfoAndPgetOnABlankEepromShowTheDefaults) {
+  Board b;
+  EXPECT_EQ(b.run("pinfo"), "OK pinfo v1 defaults");
+  EXPECT_EQ(b.run("pget T_AS"), "OK pget T_AS 50.2 0x4248cccd");
+  EXPECT_EQ(b.run("pget d0"), "OK pget d0 0.0005 0x3a03126f");
+  EXPECT_EQ(b.run("pget loops"), "OK pget loops 3 0x03");
+  EXPECT_EQ(b.run("pget m1"), "OK pget m1 -4.8334 0xc09aab36");
+  EXPECT_EQ(b.run("pget sensor_calibration.gain"), "OK pget sensor_calibration.gain 1 0x3f800000");
+}
+
+TEST(ConsoleModel, UploadCommitsAndPgetReadsTheNewSet) {
+  Board b;
+  EXPECT_EQ(b.run("pset T_AS 55"), "ERR pset: no staged set, send pbegin");
+  EXPECT_EQ(b.run("pbegin"), "OK pbegin slot 0");
+  EXPECT_EQ(b.run("pset T_AS 55.2"), "OK pset T_AS 0x425ccccd");
+  EXPECT_EQ(b.run("pset T_AF 84.1"), "OK pset T_AF 0x42a83333");
+  EXPECT_EQ(b.run("pset loop1.j 0.25"), "OK pset loop1.j 0x3e800000");
+  EXPECT_EQ(b.run("pset loops 2"), "OK pset loops 0x02");
+  EXPECT_EQ(b.run("pset sensor_delay.delay_s 0.05"), "OK pset sensor_delay.delay_s 0x3d4ccccd");
+  EXPECT_EQ(b.run("pget T_AS"), "OK pget T_AS 50.2 0x4248cccd");  // still the active set
+  EXPECT_EQ(b.run("pinfo"), "OK pinfo v1 defaults staging 0");
+  const std::string r = b.run("pcommit");
+  EXPECT_TRUE(starts_with(r, "OK pcommit v1 slot 0 seq 1 crc 0x")) << r;
+  EXPECT_TRUE(b.rebuilt);
+  EXPECT_EQ(b.run("pget T_AS"), "OK pget T_AS 55.2 0x425ccccd");
+  EXPECT_EQ(b.run("pget loops"), "OK pget loops 2 0x02");
+  EXPECT_EQ(b.run("pget loop1.j"), "OK pget loop1.j 0.25 0x3e800000");
+  EXPECT_EQ(b.run("pget T_MS"), "OK pget T_MS 28 0x41e00000");  // copied from the defaults
+  EXPECT_TRUE(starts_with(b.run("pinfo"), "OK pinfo v1 slot 0 seq 1 crc 0x"));
+  // The next set starts as a copy of this one, in the other slot.
+  EXPECT_EQ(b.run("pbegin"), "OK pbegin slot 1");
+  EXPECT_EQ(b.run("pset g 1.1496"), "OK pset g 0x3f932618");
+  EXPECT_TRUE(starts_with(b.run("pcommit"), "OK pcommit v1 slot 1 seq 2"));
+  EXPECT_EQ(b.run("pget T_AS"), "OK pget T_AS 55.2 0x425ccccd");
+}
+
+TEST(ConsoleModel, CommitOfANonPhysicalSetNamesTheKeyAndKeepsTheActiveSet) {
+  Board b;
+  b.run("pbegin");
+  EXPECT_EQ(b.run("pset T_AF 40"), "OK pset T_AF 0x42200000");
+  EXPECT_EQ(b.run("pcommit"), "ERR T_AF: must be > T_AS");
+  EXPECT_FALSE(b.rebuilt);
+  EXPECT_EQ(b.run("pinfo"), "OK pinfo v1 defaults staging 0");
+  b.run("pset T_AF 80.1");
+  b.run("pset gain 5");
+  EXPECT_EQ(b.run("pcommit"), "ERR sensor_calibration.gain: must be in 0.2..5");
+  b.run("pset sensor_calibration.gain 1");
+  b.run("pset loop0.T_i 70");
+  EXPECT_EQ(b.run("pcommit"), "ERR loops: T_i must increase strictly inside (T_s, T_f)");
+  EXPECT_EQ(b.run("pabort"), "OK pabort");
+  EXPECT_EQ(b.run("pinfo"), "OK pinfo v1 defaults");
+  EXPECT_EQ(b.run("pcommit"), "ERR pcommit: no staged set, send pbegin");
+  EXPECT_EQ(b.run("pget loop0.T_i"), "OK pget loop0.T_i 63.1 0x427c6666");
+}
+
+TEST(ConsoleModel, BadModelLinesGetOneErrAndChangeNothing) {
+  Board b;
+  b.run("pbegin");
+  const std::vector<std::pair<const char*, const char*>> bad = {
+      {"pset", "ERR pset: missing <key>"},
+      {"pset rhoo 1", "ERR pset: unknown key 'rhoo'"},
+      {"pget m6", "ERR pget: unknown key 'm6'"},
+      {"pset rho", "ERR rho: missing number <value>"},
+      {"pset rho abc", "ERR rho: value is not a number: 'abc'"},
+      {"pset rho 1e3", "ERR rho: value is not a number: '1e3'"},
+      {"pset rho 1", "ERR rho: value out of range 100..100000"},
+      {"pset d0 0.5", "ERR d0: value out of range 0.000001..0.01"},
+      {"pset loop2.j 1.5", "ERR loop2.j: value out of range 0..1"},
+      {"pset loops 9", "ERR loops: value out of range 0..8"},
+      {"pset loops 2.5", "ERR loops: value must be an integer 0..8"},
+      {"pset sensor_delay.delay_s -1", "ERR sensor_delay.delay_s: value out of range 0..5"},
+      {"pset sensor_delay.tau_s 1", "ERR pset: unknown key 'sensor_delay.tau_s'"},
+      {"pset rho 6500 7", "ERR pset: unexpected extra text"},
+      {"pget rho x", "ERR pget: unexpected extra text"},
+      {"pinfo x", "ERR pinfo: unexpected extra text"},
+      {"train 5", "ERR train: slope out of range 0.000..1.000"},
+      {"train x", "ERR train: slope is not a number: 'x'"},
+  };
+  for (const auto& l : bad) {
+    const State before = b.s;
+    EXPECT_EQ(b.run(l.first), l.second) << l.first;
+    EXPECT_FALSE(b.ok);
+    EXPECT_TRUE(same_state(b.s, before)) << l.first;
+  }
+  EXPECT_EQ(b.run("pget rho"), "OK pget rho 6500 0x45cb2000");
+  EXPECT_TRUE(starts_with(b.run("pcommit"), "OK pcommit"));  // nothing bad was staged
+  EXPECT_EQ(b.run("pget rho"), "OK pget rho 6500 0x45cb2000");
+}
+
+TEST(ConsoleModel, WritingNeedsTheHeaterOff) {
+  Board b;
+  b.run("pos 0.3");
+  ASSERT_TRUE(b.s.heat);
+  EXPECT_EQ(b.run("pbegin"), "ERR pbegin: heater on, send stop");
+  EXPECT_EQ(b.run("pset rho 6000"), "ERR pset: heater on, send stop");
+  EXPECT_EQ(b.run("pcommit"), "ERR pcommit: heater on, send stop");
+  EXPECT_EQ(b.run("pinfo"), "OK pinfo v1 defaults");  // reading is fine
+  EXPECT_TRUE(starts_with(b.run("pget rho"), "OK pget rho"));
+  b.run("stop");
+  EXPECT_EQ(b.run("pbegin"), "OK pbegin slot 0");
+}
+
+TEST(ConsoleModel, EveryModelLineFitsTheLineLimit) {
+  for (uint8_t k = 0; k < sma::storage::kNumKeys; ++k) {
+    std::string name;
+    struct N {
+      std::string* s;
+      void put(char ch) { s->push_back(ch); }
+    } n{&name};
+    sma::storage::put_key_name(n, k);
+    // effects: the parameter alone when the long key does not leave room for 12 characters
+    const std::string key = name.size() > 28 ? name.substr(name.find('.') + 1) : name;
+    const std::string line = "pset " + key + " -1234.5678901";
+    EXPECT_LE(line.size(), con::kLineMax) << line;
+    Board b;
+    b.run("pbegin");
+    EXPECT_EQ(b.run(("pset " + key + " 99999999").c_str()).compare(0, 4 + name.size(), "ERR " + name), 0) << key;
+  }
+}
+
+TEST(ConsoleTrain, StartsOpenLoopAndEndsOnOtherCommands) {
+  Console c;
+  EXPECT_EQ(c.run("train"), "OK train");
+  EXPECT_TRUE(c.s.training);
+  EXPECT_TRUE(c.s.heat);
+  EXPECT_EQ(c.s.mode, Mode::OpenLoop);
+  EXPECT_EQ(c.run("train 0.05"), "OK train");
+  con::Command cmd;
+  ASSERT_TRUE(con::parse("train 0.05", cmd, c.r));
+  EXPECT_DOUBLE_EQ(cmd.a, 0.05);
+  ASSERT_TRUE(con::parse("train", cmd, c.r));
+  EXPECT_DOUBLE_EQ(cmd.a, 0.0);
+  c.run("pos 0.2");
+  EXPECT_FALSE(c.s.training);
+  c.run("train");
+  c.run("stop");
+  EXPECT_FALSE(c.s.training);
+  EXPECT_FALSE(c.s.heat);
+  c.fault = Fault::Sensor;
+  EXPECT_EQ(c.run("train"), "ERR fault sensor: send stop");
+  EXPECT_FALSE(c.s.training);
+}

@@ -14,6 +14,17 @@ Tests (each writes DIR/<test>/... and prints a one-line summary; exit status 0 =
                   still answers afterwards
   watchdog_boot   started as after a watchdog reset (MCUSR.WDRF): fault latched, heating
                   refused until stop
+  model           model parameters in EEPROM (vrig --eeprom): pinfo/pget on a blank EEPROM,
+                  pbegin/pset/pcommit, bad lines (one ERR each, nothing changes), a set check()
+                  refuses, a reboot keeps the set, a power loss in the middle of an upload keeps
+                  the old set; stack margin through the deepest path (pcommit rebuilds the
+                  controller)
+  upload          `tools/sma upload` over the pseudo-terminal of vrig --pty, then a reboot reads
+                  every key back (needs sma_params next to vrig, or --sma-params)
+  train           (the train ELF) `train 1`: the logged v_V is sma::TrainingPlan::voltage_at
+                  (slope 1 V/s) to the printed precision (at a segment boundary: at most one tick
+                  off, float time on the AVR), the duty to the PWM quantisation,
+                  "# train done" at the end and the heater off after it
 
 Bounds (why these numbers):
   * ELF vs native: same controller code and plant; they differ by the ADC (10 bit, the average of
@@ -302,13 +313,209 @@ def t_watchdog_boot(args):
     return name, {"replies": rep, "cycles": st}, failures
 
 
+# ---- model parameters in EEPROM ----------------------------------------------------------------
+def model_checks(stats, failures):
+    """common_checks without the tick rate: EEPROM writes and the controller rebuild of pcommit
+    hold the loop (heater off) and the skipped ticks are not made up."""
+    end = ram_end(ELF)
+    if end is not None and stats.get("sp_min", 0xFFFF) != 0xFFFF:
+        stats["stack_margin_bytes"] = stats["sp_min"] - end
+        check(stats["sp_min"] - end >= 32, f"stack margin {stats['sp_min'] - end} B", failures)
+    check(stats["control_cycles_max"] < stats["cycles_per_tick_budget"], "control section over budget", failures)
+
+
+def t_model(args):
+    name = "model"
+    d = os.path.join(args.out, name)
+    os.makedirs(d, exist_ok=True)
+    ee = os.path.join(d, "eeprom.bin")
+    if os.path.exists(ee):
+        os.remove(ee)
+    failures = []
+    bad = [("pset T_AS 500", "ERR T_AS: value out of range -100..400"),
+           ("pset foo 1", "ERR pset: unknown key 'foo'"),
+           ("pset g", "ERR g: missing number <value>"),
+           ("pset loops 2.5", "ERR loops: value must be an integer 0..8"),
+           ("pset d0 1e-3", "ERR d0: value is not a number: '1e-3'"),
+           ("pget", "ERR pget: missing <key>"),
+           ("pinfo 1", "ERR pinfo: unexpected extra text"),
+           ("pcommitx", "ERR unknown command 'pcommitx' (try help)")]
+    good = [("pinfo", "OK pinfo v1 defaults"), ("pget T_AS", "OK pget T_AS 50.2 0x4248cccd"),
+            ("pbegin", "OK pbegin slot 0"), ("pset T_AS 55.2", "OK pset T_AS 0x425ccccd"),
+            ("pset T_AF 84.1", "OK pset T_AF 0x42a83333"), ("pset h 214.5", "OK pset h 0x43568000"),
+            ("pset g 1.1496", "OK pset g 0x3f932618")]
+    script, t = [], 0.05
+    for cmd, _ in good + bad + [("pset T_AF 40", None), ("pcommit", None), ("pset T_AF 84.1", None),
+                                ("pcommit", None), ("pget T_AS", None), ("pinfo", None), ("tele on", None),
+                                ("pos 0.4", None), ("status", None), ("pget g", None), ("pinfo", None),
+                                ("pset g 1", None)]:
+        script.append(f"{t:.2f} {cmd}")
+        t += 0.1
+    lines, rows, st = run_vrig(args, name, script, t + 8.0, ["--eeprom", ee])
+    rep = [s for _, s in replies(lines)]
+    check(len(rep) == len(script), f"{len(rep)} replies to {len(script)} lines: {rep}", failures)
+    if len(rep) == len(script):
+        for k, (cmd, want) in enumerate(good + bad):
+            check(rep[k] == want, f"{cmd!r}: {rep[k]!r}, expected {want!r}", failures)
+        k = len(good) + len(bad)
+        check(rep[k] == "OK pset T_AF 0x42200000", rep[k], failures)
+        check(rep[k + 1] == "ERR pcommit: fails Params/Effects check()", f"refused commit: {rep[k + 1]!r}", failures)
+        check(rep[k + 3].startswith("OK pcommit v1 slot 0 seq 1 crc 0x"), rep[k + 3], failures)
+        check(rep[k + 4] == "OK pget T_AS 55.2 0x425ccccd", rep[k + 4], failures)
+        check(rep[k + 5] == rep[k + 3].replace("pcommit", "pinfo"), rep[k + 5], failures)
+        check(rep[k + 7].startswith("OK pos 0.4000"), rep[k + 7], failures)
+        # read-only model commands while heating (their scratch Params is on the stack)
+        check(rep[k + 9] == "OK pget g 1.1496 0x3f932618", rep[k + 9], failures)
+        check(rep[k + 10] == rep[k + 5], rep[k + 10], failures)
+        check(rep[k + 11] == "ERR pset: heater on, send stop", rep[k + 11], failures)
+    check(rows and max(r[1] for r in rows) > 0.0, "no heating with the uploaded model", failures)
+    model_checks(st, failures)
+    # Reboot: the set is there; then a power loss in the middle of the next upload.
+    lines2, _, st2 = run_vrig(args, name + "_reboot", ["0.05 pinfo", "0.1 pget g", "0.2 pbegin",
+                                                        "0.3 pset T_AS 53", "0.4 pset g 1.2"], 0.45,
+                              ["--eeprom", ee])
+    rep2 = [s for _, s in replies(lines2)]
+    info = rep[k + 5] if len(rep) == len(script) else "?"
+    check(rep2[:3] == [info, "OK pget g 1.1496 0x3f932618", "OK pbegin slot 1"], f"after reboot: {rep2}", failures)
+    lines3, _, st3 = run_vrig(args, name + "_powerloss", ["0.05 pinfo", "0.1 pget T_AS", "0.2 pget g"], 0.3,
+                              ["--eeprom", ee])
+    rep3 = [s for _, s in replies(lines3)]
+    check(rep3 == [info, "OK pget T_AS 55.2 0x425ccccd", "OK pget g 1.1496 0x3f932618"],
+          f"after a power loss mid-upload: {rep3}", failures)
+    return name, {"replies": rep + rep2 + rep3, "cycles": st}, failures
+
+
+def t_upload(args):
+    """tools/sma upload through vrig's pseudo-terminal."""
+    import re
+    import time
+
+    name = "upload"
+    d = os.path.join(args.out, name)
+    os.makedirs(d, exist_ok=True)
+    ee = os.path.join(d, "eeprom.bin")
+    if os.path.exists(ee):
+        os.remove(ee)
+    wire = os.path.join(d, "wire.json")
+    with open(wire, "w") as f:
+        f.write('{"T_AS": 55.2, "T_AF": 84.1, "h": 214.5, "g": 1.1496, "loops": [{"T_i": 64, "T_ii": 60, "j": 0.2}],'
+                ' "effects": {"sensor_delay": {"delay_s": 0.05}, "convection_nonlinear": {"beta_per_K": 0.001234567}}}')
+    helper = args.sma_params or os.path.join(os.path.dirname(os.path.abspath(args.vrig)), "sma_params")
+    sma = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "sma")
+    failures = []
+    vr = subprocess.Popen([args.vrig, args.elf, "--pty", "--duration", "40", "--eeprom", ee, "--quiet"],
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    port = None
+    t_end = time.time() + 10
+    while port is None and time.time() < t_end:
+        ln = vr.stderr.readline()
+        m = re.search(r"UART0 on (\S+)", ln)
+        if m:
+            port = m.group(1)
+    if port is None:
+        vr.kill()
+        return name, {}, ["vrig --pty did not report its pseudo-terminal"]
+    time.sleep(0.5)
+    env = dict(os.environ, SMA_PARAMS=helper)
+    up = subprocess.run([sys.executable, sma, "upload", wire, "--port", port], stdout=subprocess.PIPE,
+                        stderr=subprocess.PIPE, text=True, env=env, timeout=120)
+    with open(os.path.join(d, "upload.txt"), "w") as f:
+        f.write(up.stdout + up.stderr)
+    check(up.returncode == 0, f"upload exit {up.returncode}: {up.stderr[-400:]}", failures)
+    check("57 keys" in up.stdout, "upload did not verify 57 keys", failures)
+    vr.send_signal(2)  # SIGINT (Ctrl-C) ends vrig cleanly: it writes the EEPROM file
+    try:
+        vr.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        vr.kill()
+    lines, _, st = run_vrig(args, name, ["0.05 pinfo", "0.1 pget T_AS", "0.2 pget loops", "0.3 pget delay_s",
+                                         "0.4 pget beta_per_K"], 0.5, ["--eeprom", ee])
+    rep = [s for _, s in replies(lines)]
+    check(len(rep) == 5 and rep[0].startswith("OK pinfo v1 slot 0 seq 1"), f"after reboot: {rep}", failures)
+    if len(rep) == 5:
+        check(rep[1] == "OK pget T_AS 55.2 0x425ccccd", rep[1], failures)
+        check(rep[2] == "OK pget loops 1 0x01", rep[2], failures)
+        check(rep[3].startswith("OK pget sensor_delay.delay_s 0.05 "), rep[3], failures)
+        check(rep[4].startswith("OK pget convection_nonlinear.beta_per_K 0.001235 "), rep[4], failures)
+    return name, {"replies": rep, "upload": up.stdout[-500:]}, failures
+
+
+# ---- the built-in training run (the train ELF) ---------------------------------------------------
+def training_voltage(t, slope):
+    """Oracle: sma::TrainingPlan::voltage_at (lib/sma_model/include/sma/training.hpp, defaults)."""
+    peaks = [2.0, 1.6, 1.55, 1.5, 1.46, 1.42, 1.39, 1.36, 1.33, 1.3, 1.25, 1.2]
+    floor_v, hold, probe_v, probe_s = 0.0, 20.0, 1.6, 30.0
+    if t < hold:
+        return floor_v
+    t -= hold
+    for p in peaks:
+        rise = (p - floor_v) / slope
+        if t < rise:
+            return floor_v + slope * t
+        if t < 2 * rise:
+            return p - slope * (t - rise)
+        if t < 2 * rise + hold:
+            return floor_v
+        t -= 2 * rise + hold
+    if t < probe_s:
+        return probe_v
+    return 0.0
+
+
+def training_duration(slope):
+    peaks = [2.0, 1.6, 1.55, 1.5, 1.46, 1.42, 1.39, 1.36, 1.33, 1.3, 1.25, 1.2]
+    return 20.0 + sum(2 * p / slope + 20.0 for p in peaks) + 60.0
+
+
+def t_train(args):
+    name = "train"
+    slope = 1.0
+    dur = training_duration(slope)
+    t0 = 0.5
+    lines, rows, st = run_vrig(args, name, ["0.0 tele on", f"{t0} train {slope:g}", f"{dur + 3:.1f} status"],
+                               dur + 5, ["--noise-mm", "0.002"])
+    failures = []
+    rep = [s for _, s in replies(lines)]
+    check(len(rep) == 3 and rep[1] == f"OK train {dur:.1f} s", f"replies {rep}", failures)
+    done = [t for t, s in lines if s.startswith("# train done")]
+    check(len(done) == 1, f"'# train done' lines: {len(done)}", failures)
+    # Alignment: the first tick after the command has t = 0 in the plan.
+    start = min((r[0] for r in rows if r[0] >= t0 and r[1] > 0), default=None)
+    check(start is not None, "no training voltage at all", failures)
+    worst_v = worst_duty = 0.0
+    if start is not None:
+        first = start - 20.0  # the plan starts with a 20 s hold at 0 V; the ramp starts at start
+        # (the ramp's first non-zero tick is 0.01 s into it)
+        first -= 0.01
+        for t, v, _, _, duty in rows:
+            tt = t - first
+            if tt < 0 or tt > dur - 0.02:
+                continue
+            # At a segment boundary the AVR's float time can fall one tick to either side of the
+            # double oracle's: the nearest of the three ticks counts.
+            want = min((training_voltage(tt + dt, slope) for dt in (0.0, -0.01, 0.01)), key=lambda w: abs(v - w))
+            worst_v = max(worst_v, abs(v - want))
+            # duty = n / 16000 with n = round((V / 5)^2 * 16000): +-0.5 count, printed to 1e-5
+            worst_duty = max(worst_duty, abs(duty - (want / 5.0) ** 2))
+        after = [r for r in rows if done and r[0] > done[0] + 0.05]
+        check(after and max(r[1] for r in after) == 0.0, "heater not off after the training", failures)
+    check(worst_v <= 1.5e-4, f"v_V differs from TrainingPlan::voltage_at by {worst_v:.2e} V", failures)
+    check(worst_duty <= 0.5 / 16000 + 1e-5, f"duty differs by {worst_duty:.2e}", failures)
+    if len(rep) == 3:
+        check(" off " in rep[2] and "fault=none" in rep[2], f"status after: {rep[2]!r}", failures)
+    model_checks(st, failures)
+    check(abs(st["tick_rate_hz"] - 100.0) < 0.05, f"tick rate {st['tick_rate_hz']}", failures)
+    return name, {"max_v_error_V": worst_v, "max_duty_error": worst_duty, "duration_s": dur, "cycles": st}, failures
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--vrig", required=True)
     ap.add_argument("--elf", required=True)
     ap.add_argument("--out", required=True)
+    ap.add_argument("--sma-params", help="the sma_params helper (upload test; default: next to vrig)")
     ap.add_argument("test", choices=["tracking_step", "tracking_sine", "bad_lines", "sensor_loss", "flood",
-                                     "watchdog_boot"])
+                                     "watchdog_boot", "model", "upload", "train"])
     args = ap.parse_args()
     global ELF
     ELF = args.elf
@@ -323,6 +530,12 @@ def main():
         name, summary, failures = t_sensor_loss(args)
     elif args.test == "watchdog_boot":
         name, summary, failures = t_watchdog_boot(args)
+    elif args.test == "model":
+        name, summary, failures = t_model(args)
+    elif args.test == "upload":
+        name, summary, failures = t_upload(args)
+    elif args.test == "train":
+        name, summary, failures = t_train(args)
     else:
         name, summary, failures = t_flood(args)
     summary["failures"] = failures

@@ -31,9 +31,11 @@
 #include "sma/plant.hpp"
 #include "sma/reference.hpp"
 #include "sma/safety.hpp"
+#include "sma_tools/params_json.hpp"
 
 extern "C" {
 #include "avr_adc.h"
+#include "avr_eeprom.h"
 #include "avr_uart.h"
 #include "sim_avr.h"
 #include "sim_cycle_timers.h"
@@ -72,6 +74,9 @@ struct Options {
   double noise_mm = 0.0;
   uint64_t seed = 1;
   sma::Effects fx;
+  std::string params;                   // --params FILE.json: the plant's wire (interfaces.md)
+  std::vector<std::string> effect_args;  // --effect, applied after --params
+  std::string eeprom;                   // --eeprom FILE: the AVR's EEPROM, loaded and saved
   double fault_at = -1.0, fault_mv = 5000.0;  // sensor loss injection
   double flood_from = -1.0, flood_to = -1.0;  // input flood
   bool wdrf = false;                          // start as after a watchdog reset
@@ -89,9 +94,13 @@ void usage() {
           "  --cycles-json FILE  cycles of the control section (GPIOR0 markers), tick rate and jitter\n"
           "  --noise-mm X        RMS displacement noise of the simulated sensor (mm)\n"
           "  --seed N            noise seed\n"
-          "  --effect NAME=V     plant effect: sensor_delay_s, sensor_lag_s, sensor_gain,\n"
-          "                      sensor_offset_mm, ambient_offset_K, convection_beta_per_K,\n"
-          "                      resistance_k, latent_heat_J\n"
+          "  --params FILE.json  the simulated wire: Table II keys, m, loops and hidden effects\n"
+          "                      (the params JSON of interfaces.md; default: the paper's)\n"
+          "  --effect NAME.PARAM=V  hidden plant effect, vocabulary names, e.g.\n"
+          "                      sensor_delay.delay_s=0.05 (after --params; the old field form\n"
+          "                      sensor_delay_s=0.05 ... latent_heat_J=V still works)\n"
+          "  --eeprom FILE       the AVR's 1 KB EEPROM: read at start if FILE exists, written at\n"
+          "                      the end (model parameters survive between runs)\n"
           "  --sensor-fault T[:MV]  from T s on, drive ADC0 to MV millivolts (default 5000)\n"
           "  --flood T1:T2       flood UART input with random bytes between T1 and T2 s\n"
           "  --wdrf              start as after a watchdog reset (MCUSR.WDRF set)\n"
@@ -101,13 +110,26 @@ void usage() {
           "  --quiet             do not print the firmware's lines\n");
 }
 
-bool set_effect(sma::Effects& fx, const char* arg) {
+// "name.param=V" (the vocabulary, interfaces.md) or the old "field=V" form. Returns "" or the
+// problem.
+std::string set_effect(sma::Effects& fx, const char* arg) {
+  const std::string bad = std::string("--effect '") + arg +
+                          "': expected name.param=value, e.g. sensor_delay.delay_s=0.05";
   const char* eq = strchr(arg, '=');
-  if (!eq) return false;
+  if (!eq) return bad;
+  const char* dot = strchr(arg, '.');
+  if (dot && dot < eq) {
+    try {
+      sma_tools::set_effect_arg(fx, arg);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "";
+  }
   const std::string name(arg, eq);
   char* end = nullptr;
   const double v = strtod(eq + 1, &end);
-  if (end == eq + 1 || *end != 0 || !std::isfinite(v)) return false;
+  if (end == eq + 1 || *end != 0 || !std::isfinite(v)) return bad;
   if (name == "sensor_delay_s") fx.sensor_delay_s = v;
   else if (name == "sensor_lag_s") fx.sensor_lag_s = v;
   else if (name == "sensor_gain") fx.sensor_gain = v;
@@ -116,8 +138,8 @@ bool set_effect(sma::Effects& fx, const char* arg) {
   else if (name == "convection_beta_per_K") fx.convection_beta_per_K = v;
   else if (name == "resistance_k") fx.resistance_k = v;
   else if (name == "latent_heat_J") fx.latent_heat_J = v;
-  else return false;
-  return true;
+  else return bad;
+  return "";
 }
 
 bool read_script(const std::string& path, std::vector<ScriptLine>& out) {
@@ -476,6 +498,42 @@ void xon_cb(avr_irq_t*, uint32_t, void*) {
 }
 void xoff_cb(avr_irq_t*, uint32_t, void*) { g_rig->xon = false; }
 
+// --eeprom: the 1 KB EEPROM from/to a file (a missing file = an erased EEPROM, all 0xFF).
+// (simavr 1.6's AVR_IOCTL_EEPROM_GET/SET answer -1 here: the EEPROM module is found by its kind.)
+avr_eeprom_t* find_eeprom(avr_t* avr) {
+  for (avr_io_t* p = avr->io_port; p; p = p->next)
+    if (p->kind && strcmp(p->kind, "eeprom") == 0) return reinterpret_cast<avr_eeprom_t*>(p);
+  return nullptr;
+}
+bool eeprom_io(avr_t* avr, const std::string& path, bool save) {
+  avr_eeprom_t* ee = find_eeprom(avr);
+  if (!ee || !ee->eeprom || ee->size != 1024) {
+    fprintf(stderr, "vrig: no 1 KB EEPROM in the simulated MCU\n");
+    return false;
+  }
+  if (save) {
+    FILE* fo = fopen(path.c_str(), "wb");
+    if (!fo || fwrite(ee->eeprom, 1, ee->size, fo) != ee->size) {
+      fprintf(stderr, "vrig: cannot write --eeprom %s\n", path.c_str());
+      if (fo) fclose(fo);
+      return false;
+    }
+    fclose(fo);
+    return true;
+  }
+  memset(ee->eeprom, 0xFF, ee->size);
+  FILE* fi = fopen(path.c_str(), "rb");
+  if (fi) {
+    const size_t n = fread(ee->eeprom, 1, ee->size, fi);
+    fclose(fi);
+    if (n != ee->size) {
+      fprintf(stderr, "vrig: --eeprom %s: expected %u bytes, found %zu\n", path.c_str(), ee->size, n);
+      return false;
+    }
+  }
+  return true;
+}
+
 int run_avr(Rig& rig) {
   elf_firmware_t f;
   memset(&f, 0, sizeof f);
@@ -490,6 +548,7 @@ int run_avr(Rig& rig) {
   if (!avr) return 2;
   avr_init(avr);
   avr_load_firmware(avr, &f);
+  if (!rig.opt.eeprom.empty() && !eeprom_io(avr, rig.opt.eeprom, false)) return 2;
   avr->frequency = kFreq;
   avr->vcc = avr->avcc = avr->aref = 5000;
   avr->sleep = noop_sleep;
@@ -555,6 +614,7 @@ int run_avr(Rig& rig) {
     sp_commit(rig.st);
   }
   write_json(rig.opt, rig.st, "elf", rig.now());
+  if (!rig.opt.eeprom.empty() && !eeprom_io(avr, rig.opt.eeprom, true)) return 2;
   if (state == cpu_Crashed) {
     fprintf(stderr, "vrig: the AVR crashed at %.3f s\n", rig.now());
     return 3;
@@ -603,7 +663,10 @@ int run_native(Rig& rig) {
         if (stt == con::LineBuffer::Status::Line) {
           con::Command c;
           const bool tele_before = state.tele;
-          if (con::execute(lb.line(), state, safety.fault(), reply, con::Limits(), &c)) {
+          con::Limits lim;  // the paper's model only: no EEPROM model, no training run
+          lim.model = false;
+          lim.train = false;
+          if (con::execute(lb.line(), state, safety.fault(), reply, lim, &c)) {
             if (c.op == con::Op::Stop) safety.clear();
             safety.set_limit(state.tlim_C);
             ctl.set_voltage(static_cast<float>(state.volt));
@@ -695,13 +758,9 @@ int main(int argc, char** argv) {
     else if (a == "--stamp") o.stamp = true;
     else if (a == "--noise-mm") o.noise_mm = atof(val());
     else if (a == "--seed") o.seed = strtoull(val(), nullptr, 10);
-    else if (a == "--effect") {
-      const char* e = val();
-      if (!set_effect(o.fx, e)) {
-        fprintf(stderr, "vrig: bad --effect %s\n", e);
-        return 2;
-      }
-    } else if (a == "--sensor-fault") {
+    else if (a == "--effect") o.effect_args.push_back(val());
+    else if (a == "--params") o.params = val();
+    else if (a == "--eeprom") o.eeprom = val(); else if (a == "--sensor-fault") {
       const char* s = val();
       o.fault_at = atof(s);
       if (const char* c = strchr(s, ':')) o.fault_mv = atof(c + 1);
@@ -733,8 +792,24 @@ int main(int argc, char** argv) {
     fprintf(stderr, "vrig: --duration must be > 0\n");
     return 2;
   }
+  sma::Params wire;
+  try {
+    const sma_tools::Model m = sma_tools::read_model(o.params);
+    wire = m.p;
+    o.fx = m.fx;
+  } catch (const std::exception& e) {
+    fprintf(stderr, "vrig: --params: %s\n", e.what());
+    return 2;
+  }
+  for (const std::string& e : o.effect_args) {
+    const std::string problem = set_effect(o.fx, e.c_str());
+    if (!problem.empty()) {
+      fprintf(stderr, "vrig: %s\n", problem.c_str());
+      return 2;
+    }
+  }
   if (const char* e = o.fx.check()) {
-    fprintf(stderr, "vrig: effect: %s\n", e);
+    fprintf(stderr, "vrig: --effect: effects: %s\n", e);
     return 2;
   }
   if (!o.script.empty() && !read_script(o.script, rig.script)) return 2;
@@ -752,7 +827,7 @@ int main(int argc, char** argv) {
   ro.noise_mm = o.noise_mm;
   ro.v_supply = RIG_V_SUPPLY;
   ro.seed = o.seed;
-  static sma::Plant plant(sma::Params(), o.fx, ro);  // static: ~130 KB of sensor history
+  static sma::Plant plant(wire, o.fx, ro);  // static: ~130 KB of sensor history
   rig.plant = &plant;
   const int rc = o.native ? run_native(rig) : run_avr(rig);
   if (rig.out.log) fclose(rig.out.log);

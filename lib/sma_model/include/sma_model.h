@@ -19,5 +19,6 @@
 #include "sma/sensor.hpp"
 #include "sma/reference.hpp"
 #include "sma/training.hpp"
+#include "sma/storage.hpp"
 
 #endif  // SMA_MODEL_H

@@ -1,7 +1,7 @@
-"""Finds the C++ helpers (sma_sim, sma_fit, sma_metrics, sma_discrepancy) or builds them with
+"""Finds the C++ helpers (sma_sim, sma_fit, sma_metrics, sma_discrepancy, sma_params) or builds them with
 CMake on first use.
 
-Order: $SMA_SIM / $SMA_FIT / $SMA_METRICS / $SMA_DISCREPANCY (set by CTest), then the project
+Order: $SMA_SIM / $SMA_FIT / $SMA_METRICS / $SMA_DISCREPANCY / $SMA_PARAMS (set by CTest), then the project
 build <root>/build (or $SMA_BUILD_DIR). A missing or stale binary is (re)built.
 """
 import os
@@ -12,7 +12,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.a
 TOOLS = ("sma_sim", "sma_fit")
 # Where each helper lives in the project build.
 SUBDIR = {"sma_sim": "tools/host", "sma_fit": "tools/host", "sma_metrics": "tools/host",
-          "sma_discrepancy": "tools/discrepancy"}
+          "sma_discrepancy": "tools/discrepancy", "sma_params": "tools/vrig"}
 
 
 class BuildError(RuntimeError):
@@ -22,6 +22,7 @@ class BuildError(RuntimeError):
 def _newest_source():
     newest = 0.0
     for base in (os.path.join(ROOT, "tools", "host"), os.path.join(ROOT, "tools", "discrepancy"),
+                 os.path.join(ROOT, "tools", "vrig"),
                  os.path.join(ROOT, "lib", "sma_model", "include"), os.path.join(ROOT, "host", "include")):
         for dirpath, _, files in os.walk(base):
             for f in files:

@@ -6,6 +6,7 @@
   sma plot LOG.csv --out DIR     any rig log to PNG, with the model's temperature
   sma discrepancy LOG.csv --out DIR   missing effects of the model (sma_discrepancy)
   sma console --port PORT        the board's serial console: commands, status, recording
+  sma upload PARAMS.json --port PORT   model parameters into the board's EEPROM, verified
 """
 import argparse
 import os
@@ -29,6 +30,12 @@ def _tool(name):
     except buildmod.BuildError as e:
         sys.stderr.write("sma: %s\n" % e)
         sys.exit(2)
+
+
+def cmd_upload(args):
+    from . import upload
+
+    return upload.run(args)
 
 
 def cmd_build(args):
@@ -154,6 +161,19 @@ def make_parser():
     c.add_argument("--timeout", type=float, default=2.0, help="reply timeout (s)")
     c.add_argument("--no-stop", action="store_true", help="do not send stop on a normal exit")
     c.add_argument("-q", "--quiet", action="store_true", help="do not echo replies")
+
+    u = sub.add_parser("upload", help="model parameters (params JSON) into the board's EEPROM, verified",
+                       description="Reads PARAMS.json (interfaces.md; the same reader as fit/sim: unknown "
+                                   "keys or a non-physical set are refused before anything is sent), "
+                                   "sends pbegin, pset for every key, pcommit, then reads every key "
+                                   "back with pget. Any ERR or mismatch before the commit sends pabort: "
+                                   "the board keeps its old set. The heater must be off (see --stop). "
+                                   "Exit codes: 0 ok, 1 bad file/ERR/mismatch, 2 port, 3 link lost, 4 no reply.")
+    u.add_argument("params", metavar="PARAMS.json")
+    u.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyACM0, /tmp/simavr-uart0")
+    u.add_argument("--baud", type=int, default=115200)
+    u.add_argument("--timeout", type=float, default=2.0, help="reply timeout (s) of pget/pinfo")
+    u.add_argument("--stop", action="store_true", help="send stop first (heater off)")
     return p
 
 
@@ -168,4 +188,5 @@ def main(argv=None):
     if args.command is None:
         p.print_help()
         return 2
-    return {"build": cmd_build, "fit": cmd_fit, "plot": cmd_plot, "console": cmd_console}[args.command](args)
+    return {"build": cmd_build, "fit": cmd_fit, "plot": cmd_plot, "console": cmd_console,
+            "upload": cmd_upload}[args.command](args)

@@ -20,6 +20,25 @@
 // | status               | one line: mode, reference, measurement, fault           |            |
 // | stop                 | heater off (mode off), clears a latched fault           |            |
 // | help                 | list the commands                                       |            |
+// | train [slope]        | the paper's training signal open loop (sma/training.hpp), then heater off | 0.0001..1 V/s |
+// | pbegin               | start a new model set in the inactive EEPROM slot (copy of the active one) | |
+// | pset <key> <value>   | write one value of the staged set: `OK pset <key> 0x<float32 bits read back>` | per key |
+// | pcommit              | validate the staged set (Params/Effects::check), make it active, rebuild the controller | |
+// | pabort               | drop the staged set (the active set stays)              |            |
+// | pget <key>           | a value of the active set: `OK pget <key> <value> 0x<float32 bits>` | |
+// | pinfo                | `OK pinfo v<version> slot <s> seq <n> crc 0x<crc>` or `... defaults` | |
+//
+// pbegin, pset and pcommit need the heater off (`ERR pset: heater on, send stop`). Keys are the
+// params JSON contract's (interfaces.md) flattened: rho c h d0 L0 R T_amb T_AS T_AF T_MS T_MF
+// T_s T_f T_MSs T_MSf q e g, m0..m5, loop<i>.T_i|T_ii|j (i 0..7), loops (count 0..8) and the
+// effects as <effect>.<param> (sensor_delay.delay_s, ...). A value out of the key's range gets
+// `ERR <key>: value out of range lo..hi`; a set check() refuses at pcommit gets `ERR <key>: <why>`
+// with storage::CheckValidator (host), `ERR pcommit: <why>` with a validator that gives no key
+// (the firmware's: reading check()'s messages on AVR would keep them in RAM).
+// An effect's parameter alone is accepted as its key too (beta_per_K): a long key and a precise
+// value must fit 47 characters. The model commands only parse here: the firmware runs them on
+// its EEPROM with model_command(). train and the model commands exist where Limits::train /
+// Limits::model say so (a firmware variant without them answers `ERR unknown command`).
 //
 // Replies: `OK <what changed>` or `ERR <problem>`; an ERR changes nothing. While a safety fault
 // is latched, commands that would heat (pos, step, sine, traj run, volt) answer
@@ -37,6 +56,7 @@
 #include "reference.hpp"
 #include "safety.hpp"
 #include "scalar.hpp"
+#include "storage.hpp"
 
 namespace sma {
 namespace console {
@@ -78,6 +98,8 @@ inline const char* mode_name_f(Mode m) {
 struct Limits {
   double g_mm = 0.958;  // stroke: pos and traj points in 0..g
   double v_max = 2.0;   // volt in 0..v_max
+  bool model = true;    // the model commands (pbegin ...) exist in this build
+  bool train = true;    // train exists in this build
 };
 
 // What the console controls. The firmware applies it to the controller and the safety latch.
@@ -93,6 +115,7 @@ struct State {
   double pos_mm = 0.0;                    // its setpoint if constant
   Reference traj = trajectory();          // trajectory points (edited by traj, run by traj run)
   uint16_t run = 0;  // incremented at every (re)start of a reference: restart its clock
+  bool training = false;  // the training signal is playing (train), open loop
 
   // The reference being run (a trajectory as it was at `traj run`: the firmware copies it into
   // its generator then, so editing the points does not disturb a running trajectory).
@@ -119,8 +142,11 @@ struct State {
 
 enum class Op : uint8_t {
   Empty, Pos, Step, Sine, TrajClear, TrajPoint, TrajRun, SetMode, Volt, Gains, Tlim, Tele,
-  Status, Stop, Help
+  Status, Stop, Help, Train, PBegin, PSet, PGet, PCommit, PAbort, PInfo
 };
+
+// Model commands: executed by the firmware on its EEPROM (model_command()), not by apply().
+inline bool is_model_op(Op op) { return op >= Op::PBegin; }
 
 // A parsed line.
 struct Command {
@@ -128,9 +154,11 @@ struct Command {
   double a = 0.0, b = 0.0, c = 0.0;
   Mode mode = Mode::Off;
   bool on = false;
+  uint8_t key = 0;  // model commands: the key (sma/storage.hpp)
   // Would this command turn the heater on?
   bool heats() const {
-    return op == Op::Pos || op == Op::Step || op == Op::Sine || op == Op::TrajRun || op == Op::Volt;
+    return op == Op::Pos || op == Op::Step || op == Op::Sine || op == Op::TrajRun || op == Op::Volt ||
+           op == Op::Train;
   }
 };
 
@@ -215,6 +243,27 @@ struct Reply {
       }
     }
     for (uint8_t k = 0; k < dec; ++k) put(d[k]);
+  }
+  // A short decimal, about 6-7 significant digits, trailing zeros trimmed: 0.000001, 0.2,
+  // -4.8334, 50.2, 100000 (range bounds, and pget/pset echoes next to the exact float bits).
+  void put_num(double x) {
+    const double a = x < 0.0 ? -x : x;
+    const uint8_t start = len;
+    put_fixed(x, a >= 1000.0 ? 2 : a >= 10.0 ? 4 : a >= 1.0 ? 5 : 6);
+    bool point = false;
+    for (uint8_t k = start; k < len; ++k) point = point || text[k] == '.';
+    if (!point) return;
+    while (len > start && text[len - 1] == '0') --len;
+    if (len > start && text[len - 1] == '.') --len;
+    text[len] = 0;
+  }
+  void put_hex(uint32_t v, uint8_t digits) {
+    put('0');
+    put('x');
+    for (uint8_t k = digits; k > 0; --k) {
+      const uint8_t d = static_cast<uint8_t>((v >> (4 * (k - 1))) & 0xFu);
+      put(static_cast<char>(d < 10 ? '0' + d : 'a' + d - 10));
+    }
   }
 };
 
@@ -483,6 +532,47 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
   } else if (token_is(t0, len0, SMA_F("help"))) {
     name = SMA_F("help");
     c.op = Op::Help;
+  } else if (lim.train && token_is(t0, len0, SMA_F("train"))) {
+    name = SMA_F("train");
+    c.op = Op::Train;
+    const char* save = p;
+    tok = next_token(p, len);
+    p = save;
+    if (len != 0) {  // optional slope
+      nargs = 1;
+      lo[0] = 0.0001;
+      hi[0] = 1.0;
+      what[0] = SMA_F("slope");
+    }
+  } else if (lim.model && token_is(t0, len0, SMA_F("pbegin"))) {
+    name = SMA_F("pbegin");
+    c.op = Op::PBegin;
+  } else if (lim.model && token_is(t0, len0, SMA_F("pcommit"))) {
+    name = SMA_F("pcommit");
+    c.op = Op::PCommit;
+  } else if (lim.model && token_is(t0, len0, SMA_F("pabort"))) {
+    name = SMA_F("pabort");
+    c.op = Op::PAbort;
+  } else if (lim.model && token_is(t0, len0, SMA_F("pinfo"))) {
+    name = SMA_F("pinfo");
+    c.op = Op::PInfo;
+  } else if (lim.model && (token_is(t0, len0, SMA_F("pset")) || token_is(t0, len0, SMA_F("pget")))) {
+    const bool set = t0[1] == 's';
+    name = set ? SMA_F("pset") : SMA_F("pget");
+    c.op = set ? Op::PSet : Op::PGet;
+    tok = next_token(p, len);
+    if (len == 0) return err(SMA_F("missing <key>"));
+    c.key = storage::key_index(tok, len);
+    if (c.key == storage::kNoKey) {
+      err(SMA_F("unknown key '"));
+      reply.put_s(tok, len > 32 ? 32 : len);
+      reply.put('\'');
+      return false;
+    }
+    if (set) {  // one number in the key's range, errors named by the key (below)
+      nargs = 1;
+      storage::key_range(c.key, lo[0], hi[0]);
+    }
   } else {
     reply.clear();
     reply.put_f(SMA_F("ERR unknown command '"));
@@ -494,31 +584,35 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
   double v[3] = {0, 0, 0};
   for (uint8_t k = 0; k < nargs; ++k) {
     tok = next_token(p, len);
-    if (len == 0) {
+    // pset: `ERR <key>: value ...`; others: `ERR <command>: <what> ...`
+    const bool keyed = c.op == Op::PSet;
+    const detail::Num r = len == 0 ? detail::Num::Bad : detail::parse_number(tok, len, v[k]);
+    const bool integer = !keyed || c.key != storage::kKeyLoops || v[k] == static_cast<double>(static_cast<uint8_t>(v[k]));
+    if (len == 0 || r != detail::Num::Ok || !(v[k] >= lo[k] && v[k] <= hi[k]) || !integer) {
       reply.clear();
       reply.put_f(SMA_F("ERR "));
-      reply.put_f(name);
-      reply.put_f(SMA_F(": missing number <"));
-      reply.put_f(what[k]);
-      reply.put('>');
-      return false;
-    }
-    const detail::Num r = detail::parse_number(tok, len, v[k]);
-    if (r != detail::Num::Ok || !(v[k] >= lo[k] && v[k] <= hi[k])) {
-      reply.clear();
-      reply.put_f(SMA_F("ERR "));
-      reply.put_f(name);
+      if (keyed) storage::put_key_name(reply, c.key);
+      else reply.put_f(name);
       reply.put_f(SMA_F(": "));
-      reply.put_f(what[k]);
-      if (r == detail::Num::Bad) {
+      if (len == 0) reply.put_f(SMA_F("missing number <"));
+      reply.put_f(keyed ? SMA_F("value") : what[k]);
+      if (len == 0) {
+        reply.put('>');
+      } else if (r == detail::Num::Bad) {
         reply.put_f(SMA_F(" is not a number: '"));
         reply.put_s(tok, len > 12 ? 12 : len);
         reply.put('\'');
       } else {
-        reply.put_f(SMA_F(" out of range "));
-        reply.put_fixed(lo[k], 3);
-        reply.put_f(SMA_F(".."));
-        reply.put_fixed(hi[k], 3);
+        reply.put_f(integer ? SMA_F(" out of range ") : SMA_F(" must be an integer "));
+        if (keyed) {
+          reply.put_num(lo[k]);
+          reply.put_f(SMA_F(".."));
+          reply.put_num(hi[k]);
+        } else {
+          reply.put_fixed(lo[k], 3);
+          reply.put_f(SMA_F(".."));
+          reply.put_fixed(hi[k], 3);
+        }
       }
       return false;
     }
@@ -545,6 +639,15 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
     reply.put_f(SMA_F(": send stop"));
     return false;
   }
+  if (is_model_op(c.op)) {
+    if (s.heat && (c.op == Op::PBegin || c.op == Op::PSet || c.op == Op::PCommit)) {
+      reply.put_f(SMA_F("ERR "));
+      reply.put_f(c.op == Op::PBegin ? SMA_F("pbegin") : c.op == Op::PSet ? SMA_F("pset") : SMA_F("pcommit"));
+      reply.put_f(SMA_F(": heater on, send stop"));
+      return false;
+    }
+    return true;  // the firmware runs it (model_command) and writes the reply
+  }
   switch (c.op) {
     case Op::Empty: return true;  // nothing, no reply
     case Op::TrajPoint: {
@@ -570,7 +673,17 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
     default: break;
   }
   reply.put_f(SMA_F("OK "));
+  if (c.op == Op::Pos || c.op == Op::Step || c.op == Op::Sine || c.op == Op::TrajRun ||
+      c.op == Op::Volt || c.op == Op::SetMode || c.op == Op::Stop)
+    s.training = false;  // anything else that drives the heater ends a training run
   switch (c.op) {
+    case Op::Train:
+      s.training = true;
+      s.mode = Mode::OpenLoop;
+      s.volt = 0.0;
+      s.heat = true;
+      reply.put_f(SMA_F("train"));
+      break;
     case Op::Pos:
     case Op::Step:
     case Op::Sine:
@@ -647,8 +760,8 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
       break;
     case Op::Help:
       // (fits kReplyMax: the full table is in this header and the README)
-      reply.put_f(SMA_F("pos mm|step|sine|traj clear/run/t mm|mode open/pid/ff/ffpid|volt V|"
-                        "gains kp ki kd|tlim C|tele on/off|status|stop"));
+      reply.put_f(SMA_F("pos mm|step|sine|traj|mode|volt V|gains|tlim|tele|status|stop|train|"
+                        "pbegin|pset k v|pget k|pcommit|pabort|pinfo"));
       break;
     default: break;
   }
@@ -691,11 +804,11 @@ inline void status_line(Reply& r, const State& s, const Live& l) {
   r.put_f(SMA_F("OK status "));
   r.put_f(mode_name_f(s.active_mode()));
   r.put(' ');
-  switch (s.run_kind) {
+  switch (s.training ? RefKind::Constant : s.run_kind) {
     case RefKind::MultiStep: r.put_f(SMA_F("step")); break;
     case RefKind::Sine: r.put_f(SMA_F("sine")); break;
     case RefKind::Trajectory: r.put_f(SMA_F("traj")); break;
-    default: r.put_f(SMA_F("pos")); break;
+    default: r.put_f(s.training ? SMA_F("train") : SMA_F("pos")); break;
   }
   r.put_f(SMA_F(" t="));
   r.put_fixed(l.t_ref_s, 2);
@@ -715,6 +828,116 @@ inline void status_line(Reply& r, const State& s, const Live& l) {
   r.put_u(l.dropped);
   r.put_f(SMA_F(" ovr="));
   r.put_u(l.overruns);
+}
+
+// ---- model commands (pbegin pset pget pcommit pabort pinfo) on a storage::Store -----------------
+// `scratch`/`fxs`: a Params/Effects the command may use. When the store has no active set
+// (st.active() < 0) they must hold the defaults (sma::Params(), sma::Effects()) for pbegin and
+// pget; pcommit overwrites them with the staged set. Returns true when pcommit made a new set
+// active (then in scratch/fxs): the caller rebuilds its controller from it.
+inline void pinfo_line(Reply& r, const char* head_f, int8_t active, int8_t staging, uint8_t seq,
+                       uint16_t crc) {
+  r.clear();
+  r.put_f(head_f);
+  r.put_u(storage::kVersion);
+  if (active < 0) {
+    r.put_f(SMA_F(" defaults"));
+  } else {
+    r.put_f(SMA_F(" slot "));
+    r.put_u(static_cast<uint8_t>(active));
+    r.put_f(SMA_F(" seq "));
+    r.put_u(seq);
+    r.put_f(SMA_F(" crc "));
+    r.put_hex(crc, 4);
+  }
+  if (staging >= 0) {
+    r.put_f(SMA_F(" staging "));
+    r.put_u(static_cast<uint8_t>(staging));
+  }
+}
+
+template <class E>
+inline bool model_command(const Command& c, storage::Store<E>& st, Params& scratch, Effects& fxs,
+                          Reply& r) {
+  return model_command(c, st, scratch, fxs, r, storage::CheckValidator());
+}
+// With a validator (storage.hpp): the firmware's builds its controller from the set.
+template <class E, class V>
+inline bool model_command(const Command& c, storage::Store<E>& st, Params& scratch, Effects& fxs,
+                          Reply& r, const V& valid) {
+  r.clear();
+  switch (c.op) {
+    case Op::PInfo:
+      pinfo_line(r, SMA_F("OK pinfo v"), st.active(), st.staging(), st.seq(), st.crc());
+      return false;
+    case Op::PAbort:
+      st.abort();
+      r.put_f(SMA_F("OK pabort"));
+      return false;
+    case Op::PBegin:
+      if (st.active() < 0) st.begin_from(scratch, fxs);
+      else st.begin_copy();
+      r.put_f(SMA_F("OK pbegin slot "));
+      r.put_u(static_cast<uint8_t>(st.staging()));
+      return false;
+    case Op::PSet:
+      if (st.staging() < 0) {
+        r.put_f(SMA_F("ERR pset: no staged set, send pbegin"));
+        return false;
+      }
+      st.set_value(c.key, c.a);
+      r.put_f(SMA_F("OK pset "));
+      storage::put_key_name(r, c.key);
+      r.put(' ');  // the bits as written, read back from the EEPROM
+      r.put_hex(st.read_bits(static_cast<uint8_t>(st.staging()), c.key), c.key == storage::kKeyLoops ? 2 : 8);
+      return false;
+    case Op::PGet: {
+      double v;
+      uint32_t bits;
+      if (st.active() >= 0) {
+        v = st.read_value(static_cast<uint8_t>(st.active()), c.key);
+        bits = st.read_bits(static_cast<uint8_t>(st.active()), c.key);
+      } else {
+        v = storage::get_value(scratch, fxs, c.key);
+        if (c.key != storage::kKeyLoops) v = storage::bits_float(storage::float_bits(v));
+        bits = c.key == storage::kKeyLoops ? static_cast<uint32_t>(v) : storage::float_bits(v);
+      }
+      r.put_f(SMA_F("OK pget "));
+      storage::put_key_name(r, c.key);
+      r.put(' ');
+      r.put_num(v);
+      r.put(' ');
+      r.put_hex(bits, c.key == storage::kKeyLoops ? 2 : 8);
+      return false;
+    }
+    case Op::PCommit: {
+      if (st.staging() < 0) {
+        r.put_f(SMA_F("ERR pcommit: no staged set, send pbegin"));
+        return false;
+      }
+      uint8_t bad = storage::kNoKey;
+      const char* msg = st.commit(scratch, fxs, bad, valid);
+      if (msg) {
+        // `ERR <key>: <why>`: the check() message starts with its key (Effects: the parameter).
+        // Without a key (AVR): `ERR pcommit: <message>`.
+        r.put_f(SMA_F("ERR "));
+        uint8_t n = 0;
+        if (bad != storage::kNoKey) {
+          storage::put_key_name(r, bad);
+          while (flash_char(msg + n) != 0 && flash_char(msg + n) != ' ' && flash_char(msg + n) != ':') ++n;
+          while (flash_char(msg + n) == ' ' || flash_char(msg + n) == ':') ++n;
+        } else {
+          r.put_f(SMA_F("pcommit"));
+        }
+        r.put_f(SMA_F(": "));
+        r.put_f(msg + n);
+        return false;
+      }
+      pinfo_line(r, SMA_F("OK pcommit v"), st.active(), st.staging(), st.seq(), st.crc());
+      return true;
+    }
+    default: return false;
+  }
 }
 
 }  // namespace console
