@@ -200,13 +200,17 @@ struct FwValidator {
   }
 };
 
+// The paper's values into `p`, in one place: its constructor is ~500 B of stores, and two
+// inlined copies did not fit the flash.
+static void __attribute__((noinline)) paper_params(sma::Params* p) { new (p) sma::Params(); }
+
 // The controller from the active set in EEPROM, or the paper's values when there is none.
 // The Params live in the generator's storage meanwhile (call start_reference() afterwards).
 static void __attribute__((noinline)) build_models() {
   sma::Params* p = &g_gen_store.params;
   sma::Effects fx;
   if (!FW_MODEL || g_store.load(*p, fx, FwValidator()) < 0) {  // builds the controller from each candidate
-    p = new (&g_gen_store.params) sma::Params();
+    paper_params(p);
     new (&fx) sma::Effects();
     construct_ctl(*p, fx);
   }
@@ -295,7 +299,7 @@ static void resync_ticks() {
 // pcommit builds the controller from the staged set (FwValidator); refused, the controller is
 // rebuilt from the active set.
 static void __attribute__((noinline)) model_op(const con::Command& c, sma::Params* p) {
-  new (p) sma::Params();  // the defaults (pbegin and pget read them when no set is active)
+  paper_params(p);  // the defaults (pbegin and pget read them when no set is active)
   sma::Effects fx;
   if (!con::model_command(c, g_store, *p, fx, g_reply, FwValidator()) && c.op == con::Op::PCommit)
     build_models();
@@ -402,15 +406,30 @@ static void __attribute__((noinline)) handle_line_status(con::LineBuffer::Status
   send_reply();
 }
 
+// A completed line is handled only while at least 3 ms remain before the next tick (the
+// slowest reply, status, takes ~2 ms to format): otherwise it waits, with no further byte read,
+// until just after the tick. Found by the soak: a status line parsed at the end of a period
+// delayed the tick by 2 ms.
+static con::LineBuffer::Status g_line_waiting = con::LineBuffer::Status::Pending;
+static bool line_slot_open() { return !g_tick_pending && g_div + 3 < RIG_TIMER2_DIV; }
+
 // Reads bytes until one line is complete or a tick is due.
 static void __attribute__((noinline)) poll_serial() {
+  if (g_line_waiting != con::LineBuffer::Status::Pending) {
+    if (!line_slot_open()) return;
+    const con::LineBuffer::Status st = g_line_waiting;
+    g_line_waiting = con::LineBuffer::Status::Pending;
+    handle_line_status(st);
+    return;
+  }
   while (!g_tick_pending && Serial.available() > 0) {
     const int b = Serial.read();
     if (b < 0) break;
     g_safety.on_rx();
     const con::LineBuffer::Status st = g_line.push(static_cast<char>(b));
     if (st != con::LineBuffer::Status::Pending) {
-      handle_line_status(st);
+      if (line_slot_open()) handle_line_status(st);
+      else g_line_waiting = st;
       break;
     }
   }

@@ -108,3 +108,10 @@ TEST(ParamsJson, EffectArgument) {
   EXPECT_THROW(sma_tools::set_effect_arg(fx, "nope.x=1"), Error);
   EXPECT_THROW(sma_tools::set_effect_arg(fx, "latent_heat.L_J=abc"), Error);
 }
+
+TEST(ParamsJson, UnicodeEscapesNeedFourHexDigits) {
+  // Found by fuzz_params_json: strtoul stopped early, so "\u0x68" became the key "h".
+  EXPECT_NE(error_of("{\"\\u0x68\": 40}"), "");
+  EXPECT_NE(error_of("{\"h\\uZZZZ\": 40}"), "");
+  EXPECT_EQ(error_of("{\"\\u0068\": 40}"), "");  // a real escape of 'h' is fine
+}

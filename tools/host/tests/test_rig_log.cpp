@@ -123,3 +123,17 @@ TEST(RigLog, MissingFile) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/x.csv: cannot open"), std::string::npos);
   }
 }
+
+TEST(RigLog, OnlyPlainDecimalsAreNumbersAndABomIsNotData) {
+  // Found by fuzz_rig_log: strtod alone reads "0x1p3" as 8 and skips a leading \v or \f.
+  LogReadOptions o;
+  o.max_bad_fraction = 1.0;
+  const RigLog log = parse("t_s,v_V,d_mm\n0,0,0\n0.01,0x1p3,0\n0.02,\v1,0\n0.03,1e-2,.5\n0.04,-1.,+2\n", o);
+  EXPECT_EQ(log.dropped, 2);
+  ASSERT_EQ(log.size(), 3u);
+  EXPECT_DOUBLE_EQ(log.v[1], 0.01);
+  EXPECT_DOUBLE_EQ(log.d[1], 0.5);
+  EXPECT_DOUBLE_EQ(log.v[2], -1.0);
+  // A UTF-8 byte-order mark before the header (spreadsheet exports) is skipped.
+  EXPECT_EQ(parse("\xEF\xBB\xBFt_s,v_V,d_mm\n0,0,0\n0.01,1,0.1\n").size(), 2u);
+}

@@ -587,8 +587,12 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
     // pset: `ERR <key>: value ...`; others: `ERR <command>: <what> ...`
     const bool keyed = c.op == Op::PSet;
     const detail::Num r = len == 0 ? detail::Num::Bad : detail::parse_number(tok, len, v[k]);
-    const bool integer = !keyed || c.key != storage::kKeyLoops || v[k] == static_cast<double>(static_cast<uint8_t>(v[k]));
-    if (len == 0 || r != detail::Num::Ok || !(v[k] >= lo[k] && v[k] <= hi[k]) || !integer) {
+    const bool in_range = v[k] >= lo[k] && v[k] <= hi[k];
+    // The loop count must be a whole number; cast only once it is known to fit a uint8_t
+    // (converting an out-of-range double is undefined behaviour: found by fuzz_console).
+    const bool integer = !keyed || c.key != storage::kKeyLoops || !in_range ||
+                         v[k] == static_cast<double>(static_cast<uint8_t>(v[k]));
+    if (len == 0 || r != detail::Num::Ok || !in_range || !integer) {
       reply.clear();
       reply.put_f(SMA_F("ERR "));
       if (keyed) storage::put_key_name(reply, c.key);

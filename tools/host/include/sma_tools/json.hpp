@@ -5,6 +5,7 @@
 #ifndef SMA_TOOLS_JSON_HPP
 #define SMA_TOOLS_JSON_HPP
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -216,6 +217,8 @@ class Parser {
         case 't': out += '\t'; break;
         case 'u': {
           if (i_ + 4 > s_.size()) fail("bad \\u escape");
+          for (size_t h = i_; h < i_ + 4; ++h)  // exactly 4 hex digits (strtoul would stop early)
+            if (!std::isxdigit(static_cast<unsigned char>(s_[h]))) fail("bad \\u escape");
           const unsigned long cp = std::strtoul(s_.substr(i_, 4).c_str(), nullptr, 16);
           i_ += 4;
           if (cp < 0x80) out += static_cast<char>(cp);

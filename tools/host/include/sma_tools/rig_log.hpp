@@ -62,8 +62,28 @@ inline std::vector<std::string> split(const std::string& s) {
 }
 
 // A finite decimal number filling the whole field.
+// A plain decimal: [+-]digits[.digits][(e|E)[+-]digits] (no hex floats, no inf/nan, no leading
+// whitespace of any kind: strtod alone would take "0x1p3" as 8, found by fuzz_rig_log).
 inline bool to_number(const std::string& s, double& x) {
-  if (s.empty()) return false;
+  size_t i = 0;
+  auto digits = [&]() {
+    const size_t start = i;
+    while (i < s.size() && s[i] >= '0' && s[i] <= '9') ++i;
+    return i - start;
+  };
+  if (i < s.size() && (s[i] == '+' || s[i] == '-')) ++i;
+  size_t n = digits();
+  if (i < s.size() && s[i] == '.') {
+    ++i;
+    n += digits();
+  }
+  if (n == 0) return false;
+  if (i < s.size() && (s[i] == 'e' || s[i] == 'E')) {
+    ++i;
+    if (i < s.size() && (s[i] == '+' || s[i] == '-')) ++i;
+    if (digits() == 0) return false;
+  }
+  if (i != s.size()) return false;
   char* end = nullptr;
   x = std::strtod(s.c_str(), &end);
   return end == s.c_str() + s.size() && std::isfinite(x);
@@ -95,6 +115,8 @@ inline RigLog parse_rig_log(std::istream& in, const std::string& name,
   };
   while (std::getline(in, raw)) {
     ++lineno;
+    // A UTF-8 byte-order mark (spreadsheet exports) before the first line is not data.
+    if (lineno == 1 && raw.compare(0, 3, "\xEF\xBB\xBF") == 0) raw.erase(0, 3);
     const std::string s = detail::trim(raw);
     if (s.empty()) continue;
     if (s[0] == '#') {
