@@ -19,6 +19,8 @@ Tests (each writes DIR/<test>/... and prints a one-line summary; exit status 0 =
                   refuses, a reboot keeps the set, a power loss in the middle of an upload keeps
                   the old set; stack margin through the deepest path (pcommit rebuilds the
                   controller)
+  console         `tools/sma console` over the pseudo-terminal of vrig --pty: replies, a recorded
+                  rig log, and the heater off after the console ends
   upload          `tools/sma upload` over the pseudo-terminal of vrig --pty, then a reboot reads
                   every key back (needs sma_params next to vrig, or --sma-params)
   train           (the train ELF) `train 1`: the logged v_V is sma::TrainingPlan::voltage_at
@@ -440,6 +442,61 @@ def t_upload(args):
     return name, {"replies": rep, "upload": up.stdout[-500:]}, failures
 
 
+def t_console(args):
+    """tools/sma console against the virtual rig, through its pseudo-terminal: commands get their
+    replies, telemetry is recorded as a rig log, and leaving the console turns the heater off."""
+    import re
+    import time
+
+    name = "console"
+    d = os.path.join(args.out, name)
+    os.makedirs(d, exist_ok=True)
+    sma = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "sma")
+    failures = []
+    vr = subprocess.Popen([args.vrig, args.elf, "--pty", "--duration", "120", "--quiet"],
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    port = None
+    t_end = time.time() + 10
+    while port is None and time.time() < t_end:
+        m = re.search(r"UART0 on (\S+)", vr.stderr.readline())
+        if m:
+            port = m.group(1)
+    if port is None:
+        vr.kill()
+        return name, {}, ["vrig --pty did not report its pseudo-terminal"]
+    time.sleep(0.5)
+    rec = os.path.join(d, "run.csv")
+    try:
+        c1 = subprocess.run([sys.executable, sma, "console", "--port", port, "--send", "tele on", "--send",
+                             "pos 0.4", "--duration", "3", "--record", rec, "--status", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=60)
+        c2 = subprocess.run([sys.executable, sma, "console", "--port", port, "--send", "status", "--duration",
+                             "0.5", "--status", "0"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            timeout=60)
+    finally:
+        vr.send_signal(2)
+        try:
+            vr.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            vr.kill()
+    with open(os.path.join(d, "console.txt"), "w") as f:
+        f.write(c1.stdout + c1.stderr + c2.stdout + c2.stderr)
+    check(c1.returncode == 0, f"console exit {c1.returncode}: {c1.stderr[-400:]}", failures)
+    check("OK pos 0.4000" in c1.stdout, f"no OK for pos: {c1.stdout[-300:]}", failures)
+    rows = []
+    if os.path.exists(rec):
+        with open(rec) as f:
+            body = [ln.strip() for ln in f if ln.strip() and not ln.startswith("#")]
+        check(bool(body) and body[0] == "t_s,v_V,d_mm,ref_mm,duty", f"record header: {body[:1]}", failures)
+        rows = [ln.split(",") for ln in body[1:]]
+    check(len(rows) > 50, f"only {len(rows)} telemetry rows recorded", failures)
+    check(any(float(r[1]) > 0.5 for r in rows), "the recorded run never heated", failures)
+    # The console sent `stop` when it ended: the next session finds the heater off.
+    check(c2.returncode == 0 and "OK status off" in c2.stdout, f"after the console ended: {c2.stdout[-300:]}",
+          failures)
+    return name, {"rows": len(rows)}, failures
+
+
 # ---- the built-in training run (the train ELF) ---------------------------------------------------
 def training_voltage(t, slope):
     """Oracle: sma::TrainingPlan::voltage_at (lib/sma_model/include/sma/training.hpp, defaults)."""
@@ -515,7 +572,7 @@ def main():
     ap.add_argument("--out", required=True)
     ap.add_argument("--sma-params", help="the sma_params helper (upload test; default: next to vrig)")
     ap.add_argument("test", choices=["tracking_step", "tracking_sine", "bad_lines", "sensor_loss", "flood",
-                                     "watchdog_boot", "model", "upload", "train"])
+                                     "watchdog_boot", "model", "upload", "console", "train"])
     args = ap.parse_args()
     global ELF
     ELF = args.elf
@@ -534,6 +591,8 @@ def main():
         name, summary, failures = t_model(args)
     elif args.test == "upload":
         name, summary, failures = t_upload(args)
+    elif args.test == "console":
+        name, summary, failures = t_console(args)
     elif args.test == "train":
         name, summary, failures = t_train(args)
     else:
