@@ -498,36 +498,32 @@ def t_console(args):
 
 
 # ---- the built-in training run (the train ELF) ---------------------------------------------------
-def training_voltage(t, slope):
-    """Oracle: sma::TrainingPlan::voltage_at (lib/sma_model/include/sma/training.hpp, defaults)."""
-    peaks = [2.0, 1.6, 1.55, 1.5, 1.46, 1.42, 1.39, 1.36, 1.33, 1.3, 1.25, 1.2]
-    floor_v, hold, probe_v, probe_s = 0.0, 20.0, 1.6, 30.0
-    if t < hold:
-        return floor_v
-    t -= hold
-    for p in peaks:
-        rise = (p - floor_v) / slope
-        if t < rise:
-            return floor_v + slope * t
-        if t < 2 * rise:
-            return p - slope * (t - rise)
-        if t < 2 * rise + hold:
-            return floor_v
-        t -= 2 * rise + hold
-    if t < probe_s:
-        return probe_v
-    return 0.0
-
-
-def training_duration(slope):
-    peaks = [2.0, 1.6, 1.55, 1.5, 1.46, 1.42, 1.39, 1.36, 1.33, 1.3, 1.25, 1.2]
-    return 20.0 + sum(2 * p / slope + 20.0 for p in peaks) + 60.0
+def training_oracle(args, slope):
+    """The training signal as sma_sim writes it (sma::TrainingPlan::voltage_at, the one
+    definition): (times, volts, duration) sampled every 10 ms."""
+    sim = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(args.vrig))), "host", "sma_sim")
+    out = os.path.join(args.out, "train_oracle.csv")
+    subprocess.run([sim, "--volt", "train", "--train-slope", f"{slope:g}", "--out", out], check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    t, v = [], []
+    with open(out) as f:
+        for ln in f:
+            if ln[0].isdigit():
+                a, b = ln.split(",")[:2]
+                t.append(float(a))
+                v.append(float(b))
+    return t, v, t[-1]
 
 
 def t_train(args):
     name = "train"
     slope = 1.0
-    dur = training_duration(slope)
+    o_t, o_v, dur = training_oracle(args, slope)
+
+    def training_voltage(tt):
+        k = int(round(tt / 0.01))
+        return o_v[k] if 0 <= k < len(o_v) else 0.0
+
     t0 = 0.5
     lines, rows, st = run_vrig(args, name, ["0.0 tele on", f"{t0} train {slope:g}", f"{dur + 3:.1f} status"],
                                dur + 5, ["--noise-mm", "0.002"])
@@ -550,7 +546,7 @@ def t_train(args):
                 continue
             # At a segment boundary the AVR's float time can fall one tick to either side of the
             # double oracle's: the nearest of the three ticks counts.
-            want = min((training_voltage(tt + dt, slope) for dt in (0.0, -0.01, 0.01)), key=lambda w: abs(v - w))
+            want = min((training_voltage(tt + dt) for dt in (0.0, -0.01, 0.01)), key=lambda w: abs(v - w))
             worst_v = max(worst_v, abs(v - want))
             # duty = n / 16000 with n = round((V / 5)^2 * 16000): +-0.5 count, printed to 1e-5
             worst_duty = max(worst_duty, abs(duty - (want / 5.0) ** 2))
@@ -577,26 +573,11 @@ def main():
     global ELF
     ELF = args.elf
     os.makedirs(args.out, exist_ok=True)
-    if args.test == "tracking_step":
-        name, summary, failures = t_tracking(args, "step")
-    elif args.test == "tracking_sine":
-        name, summary, failures = t_tracking(args, "sine")
-    elif args.test == "bad_lines":
-        name, summary, failures = t_bad_lines(args)
-    elif args.test == "sensor_loss":
-        name, summary, failures = t_sensor_loss(args)
-    elif args.test == "watchdog_boot":
-        name, summary, failures = t_watchdog_boot(args)
-    elif args.test == "model":
-        name, summary, failures = t_model(args)
-    elif args.test == "upload":
-        name, summary, failures = t_upload(args)
-    elif args.test == "console":
-        name, summary, failures = t_console(args)
-    elif args.test == "train":
-        name, summary, failures = t_train(args)
-    else:
-        name, summary, failures = t_flood(args)
+    tests = {"tracking_step": lambda: t_tracking(args, "step"), "tracking_sine": lambda: t_tracking(args, "sine"),
+             "bad_lines": lambda: t_bad_lines(args), "sensor_loss": lambda: t_sensor_loss(args),
+             "watchdog_boot": lambda: t_watchdog_boot(args), "model": lambda: t_model(args),
+             "upload": lambda: t_upload(args), "console": lambda: t_console(args), "train": lambda: t_train(args)}
+    name, summary, failures = tests.get(args.test, lambda: t_flood(args))()
     summary["failures"] = failures
     with open(os.path.join(args.out, name, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)

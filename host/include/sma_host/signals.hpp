@@ -38,33 +38,6 @@ struct TrainingSignal {
     return p;
   }
 
-  // Breakpoints (t, V) of the piecewise-linear signal; a repeated time is a jump.
-  std::vector<std::pair<double, double>> breakpoints() const {
-    const sma::TrainingPlan p = resolved();
-    std::vector<std::pair<double, double>> b;
-    double t = 0.0;
-    b.emplace_back(t, p.floor_V);
-    t += p.hold_s;
-    b.emplace_back(t, p.floor_V);
-    for (uint8_t k = 0; k < p.n_peaks; ++k) {
-      t += (p.peaks[k] - p.floor_V) / p.slope;
-      b.emplace_back(t, p.peaks[k]);
-      t += (p.peaks[k] - p.floor_V) / p.slope;
-      b.emplace_back(t, p.floor_V);
-      t += p.hold_s;
-      b.emplace_back(t, p.floor_V);
-    }
-    if (p.probe_V > 0.0) {
-      b.emplace_back(t, p.probe_V);
-      t += p.probe_s;
-      b.emplace_back(t, p.probe_V);
-      b.emplace_back(t, 0.0);
-      t += p.probe_s;
-      b.emplace_back(t, 0.0);
-    }
-    return b;
-  }
-
   // Sampled every dt (V held over each sample): the plan's own voltage_at().
   VoltageSignal sample(double dt = 0.01) const {
     const sma::TrainingPlan p = resolved();

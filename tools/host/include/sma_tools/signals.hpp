@@ -44,12 +44,15 @@ class Pwl {
   size_t cursor_ = 0;
 };
 
-// The training signal (sma_host::TrainingSignal, the one definition) as a Pwl.
+// The training signal (sma::TrainingPlan::voltage_at, the one definition) as a Pwl: sampled
+// every 10 ms, exact at every sample and linear between them, as the ramps are.
 struct TrainingSignal : sma_host::TrainingSignal {
   Pwl build() const {
     if (const char* problem = check()) throw Error(std::string("training signal: ") + problem);
+    const sma_host::VoltageSignal v = sample(0.01);
     Pwl s;
-    for (const auto& p : breakpoints()) s.add(p.first, p.second);
+    for (size_t k = 0; k < v.t.size(); ++k) s.add(v.t[k], v.v[k]);
+    s.add(v.t.back() + 0.01, 0.0);
     return s;
   }
 };
