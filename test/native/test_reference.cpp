@@ -62,9 +62,22 @@ TEST(Training, ThePapersDecayingRampWithReversalsAndAProbe) {
     }
     t += p.cycle_s(k);
   }
-  EXPECT_EQ(p.voltage_at(t + 1.0), p.probe_V);  // the step probe
+  // The probe: each level held probe_s in turn, then probe_s off.
+  ASSERT_GT(p.n_probes, 2);
+  for (uint8_t k = 0; k < p.n_probes; ++k) {
+    EXPECT_EQ(p.voltage_at(t + (k + 0.02) * p.probe_s), p.probes[k]);
+    EXPECT_EQ(p.voltage_at(t + (k + 0.98) * p.probe_s), p.probes[k]);
+  }
+  EXPECT_EQ(p.voltage_at(t + (p.n_probes + 0.5) * p.probe_s), 0.0);
   EXPECT_EQ(p.voltage_at(p.duration() + 1.0), 0.0);
-  EXPECT_NEAR(p.duration(), t + 2 * p.probe_s, 1e-9);
+  EXPECT_NEAR(p.duration(), t + (p.n_probes + 1) * p.probe_s, 1e-9);
+  // It goes up and down through the band: both directions of the transformation are probed.
+  bool up = false, down = false;
+  for (uint8_t k = 1; k < p.n_probes; ++k) {
+    up = up || p.probes[k] > p.probes[k - 1];
+    down = down || p.probes[k] < p.probes[k - 1];
+  }
+  EXPECT_TRUE(up && down);
   EXPECT_GT(p.duration(), 3600.0);  // the paper's slope makes it slow: 1.7 h
   sma::TrainingPlan bad;
   bad.slope = 0;
@@ -72,4 +85,11 @@ TEST(Training, ThePapersDecayingRampWithReversalsAndAProbe) {
   bad = sma::TrainingPlan();
   bad.peaks[3] = -1;
   EXPECT_NE(bad.check(), nullptr);
+  bad = sma::TrainingPlan();
+  bad.probes[2] = 6.0;  // above the supply
+  EXPECT_NE(bad.check(), nullptr);
+  bad = sma::TrainingPlan();
+  bad.probe_s = 0;  // no probe time: the plan ends after the ramps, never divides by zero
+  EXPECT_EQ(bad.check(), nullptr);
+  EXPECT_EQ(bad.voltage_at(bad.duration() - 1e-9), 0.0);
 }

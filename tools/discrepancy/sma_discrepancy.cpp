@@ -6,6 +6,7 @@
 // DIR/trace.csv and DIR/analysis.json (for the plots), and DIR/*.png through
 // plot_discrepancy.py. Exit code: 0 done, 1 bad input (message names file, line, problem).
 #include <sys/stat.h>
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -24,10 +25,11 @@ using sma_tools::json::quote;
 
 const char* kUsage =
     "usage: sma_discrepancy LOG.csv [--params PARAMS.json] --out DIR [--max-effects N] [--min-gain F]\n"
-    "                       [--block-s S] [--refit-base h,T_AS,T_AF,T_MF,g,T_amb] [--no-plots]\n"
+    "                       [--block-s S] [--refit-base all|h,T_AS,...] [--no-plots]\n"
     "  --refit-base   base parameters refitted jointly with every candidate effect (default: none,\n"
     "                 the base model stays as given); use it when the base was fitted on a log where\n"
-    "                 it could absorb the missing effect\n";
+    "                 it could absorb the missing effect; `all`: every parameter tools/sma fit\n"
+    "                 identifies (h, T_AS, T_AF, T_MF, q, e, T_MSs, T_MSf, g, j and T_ii of each loop)\n";
 
 std::string regimes_json(const std::vector<sma_host::RegimeRms>& r) {
   std::string s = "{";
@@ -67,6 +69,7 @@ int run(int argc, char** argv) {
   std::string log_path, params_path, out;
   sma_host::Options opt;
   bool plots = true;
+  bool refit_all = false;  // --refit-base all: resolved once the model's loop count is known
   while (!args.empty()) {
     const std::string a = args.next();
     if (a == "--params") params_path = args.value(a);
@@ -77,8 +80,14 @@ int run(int argc, char** argv) {
     else if (a == "--no-plots") plots = false;
     else if (a == "--refit-base") {
       for (const std::string& n : sma_tools::split_names(args.value(a))) {
+        if (n == "all") {
+          refit_all = true;
+          continue;
+        }
         const sma_host::BaseSpec* b = sma_host::find_base(n);
-        if (!b) throw Error("--refit-base: unknown parameter '" + n + "' (h, T_AS, T_AF, T_MF, g, T_amb)");
+        if (!b)
+          throw Error("--refit-base: unknown parameter '" + n +
+                      "' (all, h, T_AS, T_AF, T_MF, q, e, T_MSs, T_MSf, g, j1..j3, T_ii1..T_ii3, T_amb)");
         opt.refit_base.push_back(b);
       }
     }
@@ -99,6 +108,9 @@ int run(int argc, char** argv) {
   if (!note.empty()) std::cerr << note << "\n";
   sma_tools::Model model;
   if (!params_path.empty()) model = sma_tools::read_model(params_path);
+  if (refit_all)
+    for (const sma_host::BaseSpec* b : sma_host::all_base(model.p))
+      if (std::find(opt.refit_base.begin(), opt.refit_base.end(), b) == opt.refit_base.end()) opt.refit_base.push_back(b);
   // A log must be long enough for held-out blocks and must excite the wire.
   if (file.duration() < 4 * opt.block_s)
     throw Error(log_path + ": " + number(file.duration()) + " s of log; at least " + number(4 * opt.block_s) +
@@ -257,7 +269,7 @@ int run(int argc, char** argv) {
     md << "Base parameters refitted jointly with the effects:\n\n| parameter | given | refitted (95 % interval) |\n|---|---|---|\n";
     for (size_t i = 0; i < opt.refit_base.size(); ++i) {
       const sma_host::BaseSpec* b = opt.refit_base[i];
-      md << "| " << b->name << " | " << num(model.p.*(b->field)) << " | " << num(d.params.*(b->field)) << " ± "
+      md << "| " << b->name << " | " << num(b->get(model.p)) << " | " << num(b->get(d.params)) << " ± "
          << num(i < d.base_ci95.size() ? d.base_ci95[i] : 0.0) << " |\n";
     }
     md << "\n";

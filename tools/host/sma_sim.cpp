@@ -50,8 +50,9 @@ static const char* kUsage =
     "                         1.39,1.36,1.33,1.3,1.25,1.2: 1.7 h at the paper's slope)\n"
     "  --train-floor V        bottom of each descent (default 0)\n"
     "  --train-hold S         hold at the floor (default 20)\n"
-    "  --train-probe V        step probe after the ramps, V (default 1.6; 0 = none)\n"
-    "  --train-probe-s S      probe on/off duration (default 30)\n"
+    "  --train-probe V,V,...  probe after the ramps: holds at these voltages\n"
+    "                         (default 1.2,1.35,1.5,1.3,1.7,1.0,0.6,1.4; 0 = none)\n"
+    "  --train-probe-s S      duration of each hold, and of the rest after them (default 20)\n"
     "replay:\n"
     "  --replay LOG.csv       model output for the log's v_V: columns t_s,v_V,d_mm[,ref_mm,duty],\n"
     "                         d_model_mm,T_model_C,eps_model\n"
@@ -119,7 +120,10 @@ int run(int argc, char** argv) {
     else if (k == "--train-peaks") o.train.peaks = parse_list(a.value(k), k);
     else if (k == "--train-floor") o.train.plan.floor_V = a.number(k);
     else if (k == "--train-hold") o.train.plan.hold_s = a.number(k);
-    else if (k == "--train-probe") o.train.plan.probe_V = a.number(k);
+    else if (k == "--train-probe") {
+      o.train.probes = parse_list(a.value(k), k);
+      if (o.train.probes.size() == 1 && o.train.probes[0] == 0.0) o.train.probes.clear();
+    }
     else if (k == "--train-probe-s") o.train.plan.probe_s = a.number(k);
     else throw Error("unknown option '" + k + "' (see --help)");
   }
@@ -181,8 +185,9 @@ int run(int argc, char** argv) {
       std::ostringstream d;
       d << "training signal (paper III.B): slope " << o.train.plan.slope << " V/s, peaks";
       for (double p : o.train.peaks) d << ' ' << p;
-      d << " V, floor " << o.train.plan.floor_V << " V, hold " << o.train.plan.hold_s << " s, probe "
-        << o.train.plan.probe_V << " V x " << o.train.plan.probe_s << " s";
+      d << " V, floor " << o.train.plan.floor_V << " V, hold " << o.train.plan.hold_s << " s, probe";
+      for (double p : o.train.probes) d << ' ' << p;
+      d << " V x " << o.train.plan.probe_s << " s";
       desc = d.str();
     } else if (o.volt.compare(0, 6, "const:") == 0) {
       double v;

@@ -19,12 +19,16 @@ def test_training_signal_shape(binaries, tmp_path):
     on = np.isclose(np.abs(slopes[ramp]), 5.88e-3, rtol=1e-6)
     assert on.mean() > 0.99
     # peaks: local maxima of the ramps decay after the first
-    peaks = [v[i] for i in range(1, len(v) - 1) if v[i] > v[i - 1] and v[i] >= v[i + 1] and v[i] > 1.0]
-    ramps, probe = peaks[:-1], peaks[-1]
+    probe = t >= t[-1] + 0.5 - 9 * 20.0  # the last 180 s: 8 holds of 20 s, then 20 s off
+    ramp_v = v[~probe]
+    ramps = [ramp_v[i] for i in range(1, len(ramp_v) - 1)
+             if ramp_v[i] > ramp_v[i - 1] and ramp_v[i] >= ramp_v[i + 1] and ramp_v[i] > 1.0]
     assert abs(ramps[0] - 2.0) < 1e-2 and len(ramps) == 12
     assert all(a > b for a, b in zip(ramps[:-1], ramps[1:]))
-    assert probe == 1.6
-    # ends with the probe: 1.6 V held, then 0
+    # ends with the probe: holds up and down through the band, each 20 s, then 0
+    held = [x for i, x in enumerate(v[probe]) if i == 0 or x != v[probe][i - 1]]
+    assert held == [1.2, 1.35, 1.5, 1.3, 1.7, 1.0, 0.6, 1.4, 0.0]
+    assert np.sum(v[probe] == 1.7) == 40  # 20 s at dt 0.5
     assert v.max() <= 2.0 + 1e-9 and v[-1] == 0.0
 
 

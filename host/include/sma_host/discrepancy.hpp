@@ -74,17 +74,35 @@ inline const std::vector<EffectSpec>& vocabulary() {
 }
 
 // Base parameters the workflow may refit jointly with the effects (Options::refit_base): the
-// ones a fit on a quasi-static log can trade against a missing effect.
+// ones a fit on the same log can trade against a missing effect. `all` in the CLI is the whole
+// list: the set tools/sma fit identifies (sma_fit's default), so that the base a fit biased to
+// absorb a missing effect is re-identified together with that effect.
 struct BaseSpec {
   const char* name;
-  double sma::Params::*field;
+  double& (*ref)(sma::Params&);
   double scale;  // typical change
+  double get(const sma::Params& p) const { return ref(const_cast<sma::Params&>(p)); }
 };
 
 inline const std::vector<BaseSpec>& refittable_base() {
+  using P = sma::Params;
   static const std::vector<BaseSpec> v = {
-      {"h", &sma::Params::h, 20.0},       {"T_AS", &sma::Params::T_AS, 2.0}, {"T_AF", &sma::Params::T_AF, 2.0},
-      {"T_MF", &sma::Params::T_MF, 2.0},  {"g", &sma::Params::g, 0.05},     {"T_amb", &sma::Params::T_amb, 2.0},
+      {"h", [](P& p) -> double& { return p.h; }, 20.0},
+      {"T_AS", [](P& p) -> double& { return p.T_AS; }, 2.0},
+      {"T_AF", [](P& p) -> double& { return p.T_AF; }, 2.0},
+      {"T_MF", [](P& p) -> double& { return p.T_MF; }, 2.0},
+      {"q", [](P& p) -> double& { return p.q; }, 2.0},
+      {"e", [](P& p) -> double& { return p.e; }, 2.0},
+      {"T_MSs", [](P& p) -> double& { return p.T_MSs; }, 2.0},
+      {"T_MSf", [](P& p) -> double& { return p.T_MSf; }, 2.0},
+      {"g", [](P& p) -> double& { return p.g; }, 0.05},
+      {"j1", [](P& p) -> double& { return p.loops[0].j; }, 0.02},
+      {"T_ii1", [](P& p) -> double& { return p.loops[0].T_ii; }, 1.0},
+      {"j2", [](P& p) -> double& { return p.loops[1].j; }, 0.02},
+      {"T_ii2", [](P& p) -> double& { return p.loops[1].T_ii; }, 1.0},
+      {"j3", [](P& p) -> double& { return p.loops[2].j; }, 0.02},
+      {"T_ii3", [](P& p) -> double& { return p.loops[2].T_ii; }, 1.0},
+      {"T_amb", [](P& p) -> double& { return p.T_amb; }, 2.0},
   };
   return v;
 }
@@ -93,6 +111,19 @@ inline const BaseSpec* find_base(const std::string& name) {
   for (const BaseSpec& b : refittable_base())
     if (name == b.name) return &b;
   return nullptr;
+}
+
+// `all`: every refittable base parameter the model has (loops beyond n_loops are skipped), but
+// not T_amb (a measured quantity, and degenerate with h on a log without a cold hold).
+inline std::vector<const BaseSpec*> all_base(const sma::Params& p) {
+  std::vector<const BaseSpec*> out;
+  for (const BaseSpec& b : refittable_base()) {
+    const std::string n = b.name;
+    if (n == "T_amb") continue;
+    if ((n[0] == 'j' || n.compare(0, 4, "T_ii") == 0) && (n.back() - '0') > p.n_loops) continue;
+    out.push_back(&b);
+  }
+  return out;
 }
 
 inline const EffectSpec* find_effect(const std::string& name) {
@@ -259,7 +290,7 @@ struct Residuals {
   sma::Params params(const Eigen::VectorXd& x) const {
     sma::Params q = *p;
     long j = n_in - static_cast<long>(base->size());
-    for (const BaseSpec* b : *base) q.*(b->field) = p->*(b->field) + x[j++] * b->scale;
+    for (const BaseSpec* b : *base) b->ref(q) = b->get(*p) + x[j++] * b->scale;
     return q;
   }
   int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& r) const {

@@ -71,7 +71,7 @@ inline RigLog hidden_effect_log(const HiddenCase& c, const sma::Params& p, uint6
   tr.plan.slope = 0.05;
   tr.peaks = {1.60, 1.42, 1.36, 1.31, 1.26};
   tr.plan.hold_s = 5.0;
-  tr.plan.probe_V = 0.0;
+  tr.probes.clear();
   return simulate_log(p, c.effects, c.ramp ? tr.sample() : default_steps(), 0.002, seed);
 }
 

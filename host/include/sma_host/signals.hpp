@@ -20,14 +20,16 @@ struct VoltageSignal {
 // The paper's training signal: sma::TrainingPlan (sma/training.hpp, shared with the firmware's
 // built-in training run), with a vector of peaks for convenience on the host.
 struct TrainingSignal {
-  sma::TrainingPlan plan;  // slope, floor, hold, probe (its peaks are set from `peaks`)
+  sma::TrainingPlan plan;  // slope, floor, hold, probe_s (peaks and probes are set from the vectors)
   std::vector<double> peaks = std::vector<double>(plan.peaks, plan.peaks + plan.n_peaks);
+  std::vector<double> probes = std::vector<double>(plan.probes, plan.probes + plan.n_probes);
 
   TrainingSignal() = default;
 
   // nullptr if the signal can be built, else the problem.
   const char* check() const {
     if (peaks.size() > sma::kMaxTrainingPeaks) return "at most 12 peaks";
+    if (probes.size() > sma::kMaxTrainingProbes) return "at most 8 probe levels";
     return resolved().check();
   }
 
@@ -35,6 +37,8 @@ struct TrainingSignal {
     sma::TrainingPlan p = plan;
     p.n_peaks = static_cast<uint8_t>(std::min<size_t>(peaks.size(), sma::kMaxTrainingPeaks));
     for (uint8_t k = 0; k < p.n_peaks; ++k) p.peaks[k] = peaks[k];
+    p.n_probes = static_cast<uint8_t>(std::min<size_t>(probes.size(), sma::kMaxTrainingProbes));
+    for (uint8_t k = 0; k < p.n_probes; ++k) p.probes[k] = probes[k];
     return p;
   }
 
@@ -63,9 +67,14 @@ inline VoltageSignal voltage_steps(const std::vector<double>& levels_V, double h
   return s;
 }
 
-// Default staircase: through the transformation, a minor loop, and back to cold.
+// Default staircase: the training run's probe (through the transformation, a minor loop, back
+// to cold), between 20 s at rest before and after.
 inline VoltageSignal default_steps(double dt = 0.01) {
-  return voltage_steps({0.0, 1.2, 1.35, 1.5, 1.3, 1.7, 1.0, 0.6, 1.4, 0.0}, 20.0, dt);
+  const sma::TrainingPlan plan;
+  std::vector<double> levels(1, 0.0);
+  levels.insert(levels.end(), plan.probes, plan.probes + plan.n_probes);
+  levels.push_back(0.0);
+  return voltage_steps(levels, 20.0, dt);
 }
 
 }  // namespace sma_host

@@ -10,9 +10,13 @@
 // `floor_V` and holds there so the wire is martensite again. Measured on a simulated wire
 // (tools/tests/test_fit.py): 12 peaks leave the minor-loop parameters well enough fixed that a
 // closed-loop sine the fit never saw is predicted to the noise level; 7 peaks (one hour less)
-// leave ~4x the noise. The probe (a step to probe_V, then off) excites the thermal time
-// constant, which a quasi-static ramp barely shows: without it h and the transformation
-// temperatures slide together (errors up to 0.6 K / 0.9 % instead of 0.1 K / 0.2 %).
+// leave ~4x the noise. The probe, a staircase of voltage holds after the ramps (each probe_s
+// long, then off), excites the thermal time constant at several temperatures, which a
+// quasi-static ramp barely shows: without any step h and the transformation temperatures slide
+// together (errors up to 0.6 K / 0.9 % instead of 0.1 K / 0.2 %), and with a single step a heat
+// loss that is not linear in the temperature rise (convection_nonlinear) is absorbed into h,
+// T_AS and T_AF. Holds up and down at several levels inside the band give the steady states and
+// the time constants at several temperatures that separate them (bench/e2e_flow.py).
 // No STL, no heap: evaluated point by point (AVR) or sampled (host, sma_host/signals.hpp).
 #ifndef SMA_TRAINING_HPP
 #define SMA_TRAINING_HPP
@@ -23,6 +27,7 @@
 namespace sma {
 
 constexpr uint8_t kMaxTrainingPeaks = 12;
+constexpr uint8_t kMaxTrainingProbes = 8;
 
 struct TrainingPlan {
   double slope = 5.88e-3;  // V/s, both directions (paper)
@@ -30,16 +35,22 @@ struct TrainingPlan {
   uint8_t n_peaks = 12;
   double floor_V = 0.0;
   double hold_s = 20.0;   // at the floor after each descent (and at the start)
-  double probe_V = 1.6;   // 0: no probe
-  double probe_s = 30.0;  // on, then off, for this long each
+  // The probe: holds at these voltages in turn, probe_s each, then probe_s off. Up and down
+  // through the band (1.0..1.5 V for wires near the paper's) and once above it (1.7 V).
+  double probes[kMaxTrainingProbes] = {1.2, 1.35, 1.5, 1.3, 1.7, 1.0, 0.6, 1.4};
+  uint8_t n_probes = 8;   // 0: no probe
+  double probe_s = 20.0;
 
   // nullptr if the plan can be played, else the problem.
   const char* check() const {
     if (!(slope > 0.0 && slope < 10.0)) return "slope must be in 0..10 V/s";
     if (n_peaks > kMaxTrainingPeaks) return "too many peaks";
-    if (!(floor_V >= 0.0 && hold_s >= 0.0 && probe_V >= 0.0 && probe_s >= 0.0)) return "negative time or voltage";
+    if (n_probes > kMaxTrainingProbes) return "too many probe levels";
+    if (!(floor_V >= 0.0 && hold_s >= 0.0 && probe_s >= 0.0)) return "negative time or voltage";
     for (uint8_t k = 0; k < n_peaks; ++k)
       if (!(peaks[k] > floor_V && peaks[k] <= 5.0)) return "every peak must be above the floor, at most 5 V";
+    for (uint8_t k = 0; k < n_probes; ++k)
+      if (!(probes[k] >= 0.0 && probes[k] <= 5.0)) return "every probe level must be in 0..5 V";
     return nullptr;
   }
 
@@ -49,7 +60,7 @@ struct TrainingPlan {
   double duration() const {
     double t = hold_s;
     for (uint8_t k = 0; k < n_peaks; ++k) t += cycle_s(k);
-    return t + (probe_V > 0.0 ? 2.0 * probe_s : 0.0);
+    return t + (n_probes > 0 ? (n_probes + 1) * probe_s : 0.0);
   }
 
   // The voltage at t seconds from the start (0 after the end).
@@ -64,7 +75,10 @@ struct TrainingPlan {
       if (t < 2.0 * rise + hold_s) return floor_V;
       t -= cycle_s(k);
     }
-    if (probe_V > 0.0 && t < probe_s) return probe_V;
+    if (t >= 0.0 && t < n_probes * probe_s) {
+      const uint8_t k = static_cast<uint8_t>(t / probe_s);
+      return probes[k < n_probes ? k : n_probes - 1];  // (k == n_probes only by rounding)
+    }
     return 0.0;
   }
 };
