@@ -41,7 +41,7 @@ int run(int argc, char** argv) {
   const sma_host::Metrics m = test == "sine" ? sma_host::sine_metrics(run, period, true)
                                              : sma_host::step_metrics(run, step, true);
   std::cout << "{\"rms_mm\": " << number(m.rms_mm) << ", \"max_heat_mm\": " << number(m.max_heat_mm)
-            << ", \"max_cool_mm\": " << number(m.max_cool_mm) << ", \"overshoot_pct\": " << number(m.overshoot_pct)
+            << ", \"rms_heat_mm\": " << number(m.rms_heat_mm) << ", \"max_cool_mm\": " << number(m.max_cool_mm) << ", \"overshoot_pct\": " << number(m.overshoot_pct)
             << ", \"settle_s\": " << number(m.settle_s) << ", \"sse_mm\": " << number(m.sse_mm) << "}\n";
   return 0;
 }

@@ -17,7 +17,7 @@ class FakeBoard:
     """A serial-port stand-in that answers like the firmware (console.hpp): OK/ERR replies, and
     telemetry rows while tele is on. `fail_after` reads raise OSError (cable pulled)."""
 
-    def __init__(self, fail_after=None, interrupt_after=None):
+    def __init__(self, fail_after=None, interrupt_after=None, done_after=None):
         self.out = b""
         self.written = []
         self.tele = False
@@ -26,6 +26,7 @@ class FakeBoard:
         self.fail_after = fail_after
         self.interrupt_after = interrupt_after
         self.closed = False
+        self.done_after = done_after  # reads before "# train done: heater off"
 
     def write(self, data):
         for line in data.decode().splitlines():
@@ -56,6 +57,8 @@ class FakeBoard:
         if self.interrupt_after is not None and self.reads > self.interrupt_after:
             self.interrupt_after = None  # one Ctrl-C
             raise KeyboardInterrupt
+        if self.done_after is not None and self.reads == self.done_after:
+            self.out += b"# train done: heater off\r\n"
         if self.tele:
             for _ in range(3):
                 self.t += 1
@@ -69,7 +72,7 @@ class FakeBoard:
 
 def args(**kw):
     base = dict(port="fake", baud=115200, send=None, record=None, duration=None, interactive=False,
-                status=0, timeout=1.0, no_stop=False, quiet=True)
+                status=0, timeout=1.0, no_stop=False, quiet=True, until=None)
     base.update(kw)
     return types.SimpleNamespace(**base)
 
@@ -138,6 +141,21 @@ def test_link_lost_is_reported_and_stop_attempted():
     assert code == 3
     assert "stop" in b.written
     assert any("link lost" in e for e in err)
+
+
+def test_until_waits_for_the_line_then_stops(tmp_path):
+    rec = tmp_path / "train.csv"
+    b = FakeBoard(done_after=40)
+    code = console.run(args(send=["tele on"], until="train done", duration=30, record=str(rec)), port=b)
+    assert code == 0 and b.reads >= 40 and b.written[-1] == "stop"
+    assert "# train done: heater off" in rec.read_text()  # the board's comment is in the log
+    # the awaited line never comes: exit 5 once --duration has passed, heater off all the same
+    b = FakeBoard()
+    err = []
+    code = console.run(args(send=["tele on"], until="train done", duration=0.3), port=b,
+                       err=types.SimpleNamespace(write=err.append, flush=lambda: None))
+    assert code == 5 and b.written[-1] == "stop"
+    assert any("'train done' not seen" in e for e in err)
 
 
 def test_interactive_commands_from_stdin():

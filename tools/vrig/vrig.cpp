@@ -69,6 +69,7 @@ struct Options {
   std::string elf;
   std::string script, log, cycles_json;
   double duration = 10.0;
+  double speed = 1.0;  // --realtime pacing: simulated seconds per wall-clock second
   bool pty = false, native = false, quiet = false, stamp = false, realtime = false;
   bool use_stdin = true;
   double noise_mm = 0.0;
@@ -89,6 +90,9 @@ void usage() {
           "  --script FILE       timed commands, lines '<t_s> <command>' ('#' comments)\n"
           "  --pty               expose UART0 on a pseudo-terminal (/tmp/simavr-uart0); implies --realtime\n"
           "  --realtime          do not run faster than wall-clock time\n"
+          "  --speed X           with --realtime/--pty: run X times faster than wall-clock time\n"
+          "                      (a long training run through the console in minutes; the\n"
+          "                      firmware's own timing is simulated time, unaffected)\n"
           "  (neither --script nor --pty: stdin lines are sent as they come)\n"
           "  --log FILE          write the telemetry (header + rows) received to a CSV rig log\n"
           "  --cycles-json FILE  cycles of the control section (GPIOR0 markers), tick rate and jitter\n"
@@ -406,7 +410,7 @@ struct Rig {
       struct timespec w;
       clock_gettime(CLOCK_MONOTONIC, &w);
       const double wall = (w.tv_sec - wall0.tv_sec) + 1e-9 * (w.tv_nsec - wall0.tv_nsec);
-      if (t > wall) usleep(static_cast<useconds_t>((t - wall) * 1e6));
+      if (t > wall * opt.speed) usleep(static_cast<useconds_t>((t / opt.speed - wall) * 1e6));
     }
   }
 
@@ -752,6 +756,7 @@ int main(int argc, char** argv) {
     else if (a == "--cycles-json") o.cycles_json = val();
     else if (a == "--pty") o.pty = o.realtime = true;
     else if (a == "--realtime") o.realtime = true;
+    else if (a == "--speed") o.speed = atof(val());
     else if (a == "--native") o.native = true;
     else if (a == "--wdrf") o.wdrf = true;
     else if (a == "--quiet") o.quiet = true;
@@ -790,6 +795,10 @@ int main(int argc, char** argv) {
   }
   if (!(o.duration > 0)) {
     fprintf(stderr, "vrig: --duration must be > 0\n");
+    return 2;
+  }
+  if (!(o.speed > 0 && o.speed <= 1000)) {
+    fprintf(stderr, "vrig: --speed must be in (0, 1000]\n");
     return 2;
   }
   sma::Params wire;

@@ -259,6 +259,16 @@ struct FitOutcome {
   std::string corr_pair;          // which two
 };
 
+// A sensor's calibration gain and the wire's stroke g only act as their product on a position
+// log: with g refitted, the gain stays as given (else the two drift apart and the controller,
+// which reads positions through the gain, tracks a scaled reference).
+inline bool frozen(const EffectSpec& e, int i, const std::vector<const BaseSpec*>& base) {
+  if (std::string(e.name) != "sensor_calibration" || std::string(e.param[i]) != "gain") return false;
+  for (const BaseSpec* b : base)
+    if (std::string(b->name) == "g") return true;
+  return false;
+}
+
 namespace detail {
 
 // Residuals on the training indices for the parameter vector x (scaled), as Eigen's LM wants.
@@ -279,14 +289,18 @@ struct Residuals {
   int inputs() const { return n_in; }
   int values() const { return static_cast<int>(idx->size()); }
 
-  sma::Effects effects(const Eigen::VectorXd& x) const {
+  std::vector<FittedEffect> values(const Eigen::VectorXd& x) const {
     std::vector<FittedEffect> s = slots;
     int j = 0;
     for (FittedEffect& f : s)
-      for (int i = 0; i < f.spec->n; ++i, ++j)
-        f.value[i] = sma::clamp(x[j] * f.spec->scale[i], f.spec->lo[i], f.spec->hi[i]);
-    return effects_of(s);
+      for (int i = 0; i < f.spec->n; ++i)
+        if (!frozen(*f.spec, i, *base)) {
+          f.value[i] = sma::clamp(x[j] * f.spec->scale[i], f.spec->lo[i], f.spec->hi[i]);
+          ++j;
+        }
+    return s;
   }
+  sma::Effects effects(const Eigen::VectorXd& x) const { return effects_of(values(x)); }
   sma::Params params(const Eigen::VectorXd& x) const {
     sma::Params q = *p;
     long j = n_in - static_cast<long>(base->size());
@@ -311,12 +325,14 @@ struct Residuals {
 inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> effects, const RigLog& log,
                               const Split& split, const std::vector<const BaseSpec*>& base = {}) {
   detail::Residuals f{&p, &log, &split.train, effects, 0, &base};
-  for (const FittedEffect& e : effects) f.n_in += e.spec->n;
+  for (const FittedEffect& e : effects)
+    for (int i = 0; i < e.spec->n; ++i) f.n_in += frozen(*e.spec, i, base) ? 0 : 1;
   f.n_in += static_cast<int>(base.size());
   Eigen::VectorXd x(f.n_in);
   int j = 0;
   for (const FittedEffect& e : effects)
-    for (int i = 0; i < e.spec->n; ++i) x[j++] = e.value[i] / e.spec->scale[i];
+    for (int i = 0; i < e.spec->n; ++i)
+      if (!frozen(*e.spec, i, base)) x[j++] = e.value[i] / e.spec->scale[i];
   for (size_t b = 0; b < base.size(); ++b) x[j++] = 0.0;  // offsets from the given base model
   if (f.n_in > 0) {
     Eigen::NumericalDiff<detail::Residuals> nd(f, 1e-4);
@@ -328,10 +344,7 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
   FitOutcome out;
   out.params = f.params(x);
   if (out.params.check() != nullptr) out.params = p;
-  j = 0;
-  for (FittedEffect& e : effects)
-    for (int i = 0; i < e.spec->n; ++i, ++j)
-      e.value[i] = sma::clamp(x[j] * e.spec->scale[i], e.spec->lo[i], e.spec->hi[i]);
+  effects = f.values(x);
   const std::vector<double> pred = predict(out.params, effects_of(effects), log);
   out.rms_train = rms_on(pred, log, split.train);
   out.rms_test = rms_on(pred, log, split.test);
@@ -355,7 +368,14 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
                                 (r0.squaredNorm() / dof);
     j = 0;
     for (FittedEffect& e : effects)
-      for (int i = 0; i < e.spec->n; ++i, ++j) e.ci95[i] = 1.96 * sqrt(fmax(cov(j, j), 0.0)) * e.spec->scale[i];
+      for (int i = 0; i < e.spec->n; ++i) {
+        if (frozen(*e.spec, i, base)) {
+          e.ci95[i] = 0.0;  // held, not fitted
+          continue;
+        }
+        e.ci95[i] = 1.96 * sqrt(fmax(cov(j, j), 0.0)) * e.spec->scale[i];
+        ++j;
+      }
     for (size_t b = 0; b < base.size(); ++b, ++j)
       out.base_ci95.push_back(1.96 * sqrt(fmax(cov(j, j), 0.0)) * base[b]->scale);
     for (int a = 0; a < f.n_in; ++a)

@@ -17,6 +17,8 @@ namespace sma_host {
 struct Metrics {
   double rms_mm = 0;        // RMS of ref - truth over the scored part
   double max_heat_mm = 0;   // max |error| while heating
+  double rms_heat_mm = 0;   // RMS error while heating (the part the controller drives; cooling is
+                            // passive: the bias spring and the air set its error, not the model)
   double max_cool_mm = 0;   // max |error| while cooling
   double overshoot_pct = 0; // steps: max overshoot past a setpoint, % of the step
   double settle_s = 0;      // steps: mean time to enter and stay within 5 % of the step
@@ -30,25 +32,30 @@ inline double err_of(const Sample& s, bool measured) {
 
 inline Metrics sine_metrics(const std::vector<Sample>& run, double period_s, bool measured = false) {
   Metrics m;
-  double sum = 0;
-  long n = 0;
+  double sum = 0, heat_sum = 0;
+  long n = 0, heat_n = 0;
   for (size_t k = 1; k < run.size(); ++k) {
     if (run[k].t < period_s) continue;
     const double e = fabs(err_of(run[k], measured));
     sum += e * e;
     ++n;
     const double dr = run[k].ref - run[k - 1].ref;
-    if (dr > 0 && e > m.max_heat_mm) m.max_heat_mm = e;
+    if (dr > 0) {
+      heat_sum += e * e;
+      ++heat_n;
+      if (e > m.max_heat_mm) m.max_heat_mm = e;
+    }
     if (dr < 0 && e > m.max_cool_mm) m.max_cool_mm = e;
   }
   m.rms_mm = n ? sqrt(sum / static_cast<double>(n)) : 0;
+  m.rms_heat_mm = heat_n ? sqrt(heat_sum / static_cast<double>(heat_n)) : 0;
   return m;
 }
 
 inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool measured = false) {
   Metrics m;
-  double sum = 0, settle_sum = 0;
-  long n = 0, n_settle = 0;
+  double sum = 0, settle_sum = 0, heat_sum = 0;
+  long n = 0, n_settle = 0, heat_n = 0;
   size_t start = 0;
   while (start < run.size()) {
     size_t end = start;
@@ -68,6 +75,10 @@ inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool 
       if (!arrived && (up ? e <= 0 : e >= 0)) arrived = true;
       if (arrived) {
         if (up && fabs(e) > m.max_heat_mm) m.max_heat_mm = fabs(e);
+        if (up) {
+          heat_sum += e * e;
+          ++heat_n;
+        }
         if (!up && fabs(e) > m.max_cool_mm) m.max_cool_mm = fabs(e);
         const double over = up ? -e : e;  // past the setpoint
         if (fabs(step) > 1e-9 && over > 0)
@@ -88,6 +99,7 @@ inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool 
   }
   m.rms_mm = n ? sqrt(sum / static_cast<double>(n)) : 0;
   m.settle_s = n_settle ? settle_sum / static_cast<double>(n_settle) : 0;
+  m.rms_heat_mm = heat_n ? sqrt(heat_sum / static_cast<double>(heat_n)) : 0;
   return m;
 }
 

@@ -155,6 +155,9 @@ def make_parser():
                    help="command to send first (repeatable), e.g. --send 'tele on' --send 'pos 0.4'")
     c.add_argument("--record", metavar="FILE.csv", help="record the telemetry rows to a rig log")
     c.add_argument("--duration", type=float, help="keep the link open this many seconds, then stop")
+    c.add_argument("--until", metavar="TEXT",
+                   help="keep the link open until a line containing TEXT arrives, e.g. 'train done' "
+                        "(--duration then bounds the wait: exit 5 if it passes first)")
     c.add_argument("-i", "--interactive", action="store_true", help="read commands from stdin")
     c.add_argument("--status", type=float, default=1.0, metavar="S",
                    help="status line period (s), 0 = none (default 1)")

@@ -93,6 +93,8 @@ class ConsoleClient:
         self.last_row = None
         self.rows = 0
         self.other = 0
+        self.until = None        # text awaited in a comment or other line (--until)
+        self.until_seen = False
 
     # ---- input ------------------------------------------------------------------------------
     def _read(self, n=4096):
@@ -136,6 +138,8 @@ class ConsoleClient:
         elif kind == "other":
             self.other += 1
             self.echo(payload)
+        if self.until and kind in ("comment", "other") and self.until in payload:
+            self.until_seen = True
 
     def poll(self):
         """Reads what is there (the port's timeout bounds the wait); returns handled lines."""
@@ -182,7 +186,8 @@ class ConsoleClient:
 
 def run(args, port=None, stdin=None, out=sys.stdout, err=sys.stderr):
     """The `sma console` command. Returns the exit code: 0 ok, 1 ERR reply to a --send command,
-    2 port cannot be opened, 3 link lost, 4 no reply, 130 interrupted (after `stop` was sent)."""
+    2 port cannot be opened, 3 link lost, 4 no reply, 5 --until text not seen within --duration,
+    130 interrupted (after `stop` was sent)."""
     import queue
     import threading
 
@@ -201,6 +206,7 @@ def run(args, port=None, stdin=None, out=sys.stdout, err=sys.stderr):
         recorder = Recorder(rec_file, args.port)
     echo = (lambda text: out.write(text + "\n")) if not args.quiet else None
     c = ConsoleClient(port, recorder=recorder, echo=echo)
+    c.until = getattr(args, "until", None)
     lines = queue.Queue()
     if args.interactive:
         src = stdin or sys.stdin
@@ -224,9 +230,14 @@ def run(args, port=None, stdin=None, out=sys.stdout, err=sys.stderr):
         last_status = 0.0
         while code == 0:
             now = time.monotonic()
-            if args.duration is not None and now - start >= args.duration:
+            if c.until_seen:
                 break
-            if not args.interactive and args.duration is None:
+            if args.duration is not None and now - start >= args.duration:
+                if c.until:
+                    err.write("\nsma console: '%s' not seen within %g s\n" % (c.until, args.duration))
+                    code = 5
+                break
+            if not args.interactive and args.duration is None and not c.until:
                 break
             while not lines.empty():
                 line = lines.get()
