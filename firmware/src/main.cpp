@@ -196,7 +196,7 @@ struct FwValidator {
   const char* operator()(const sma::Params& p, const sma::Effects& fx, uint8_t& bad_key) const {
     bad_key = sma::storage::kNoKey;
     construct_ctl(p, fx);
-    return g_ctl.valid() ? nullptr : SMA_F("fails Params/Effects check()");
+    return g_ctl.valid() ? nullptr : SMA_F("invalid model");
   }
 };
 
@@ -338,6 +338,18 @@ static void __attribute__((noinline)) model_exec() {
   if (c.op == con::Op::PBegin || c.op == con::Op::PCommit) model_write(c);
   else model_read(c);
   if (c.op == con::Op::PBegin || c.op == con::Op::PCommit || c.op == con::Op::PSet) resync_ticks();
+  send_reply();
+}
+
+// The latch tripped while heating (or the watchdog reset the board): say so once, on its own
+// line, so a user (or a log) sees why the heater went off without polling status.
+static bool g_fault_due = false;
+static void __attribute__((noinline)) announce_fault() {
+  g_fault_due = false;
+  g_reply.clear();
+  g_reply.put_f(SMA_F("# fault "));
+  g_reply.put_f(sma::fault_name(g_safety.fault()));
+  g_reply.put_f(SMA_F(": heater off"));
   send_reply();
 }
 
@@ -486,6 +498,7 @@ static void __attribute__((noinline)) control_tick() {
   in.heating = g_state.heat;
   const float v = static_cast<float>(g_safety.gate(in));
   if (g_safety.tripped() && g_state.heat) {
+    g_fault_due = true;
     g_state.heat = false;
     g_state.training = false;
     g_ctl.set_mode(sma::Mode::Off, sma::from_double<Scalar>(mm));
@@ -542,13 +555,9 @@ void setup() {
   Serial.begin(RIG_BAUD);
   g_safety.boot(wdrf);
   g_reply.clear();
-  g_reply.put_f(SMA_F("# sma_firmware " FW_VARIANT " ready: heater off; help lists commands"));
+  g_reply.put_f(SMA_F("# sma_firmware " FW_VARIANT " ready: heater off; try help"));
   send_reply();
-  if (wdrf) {
-    g_reply.clear();
-    g_reply.put_f(SMA_F("# fault watchdog: the last run hung; send stop to clear"));
-    send_reply();
-  }
+  if (wdrf) announce_fault();  // "# fault watchdog": the last run hung
   wdt_enable(WDTO_250MS);
 }
 
@@ -568,6 +577,7 @@ void loop() {
       g_ticks = raised - 1u;
     }
     control_tick();
+    if (g_fault_due) announce_fault();
   }
   if (FW_TRAIN) end_training_if_over();
 }

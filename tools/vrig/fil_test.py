@@ -361,7 +361,7 @@ def t_model(args):
             check(rep[k] == want, f"{cmd!r}: {rep[k]!r}, expected {want!r}", failures)
         k = len(good) + len(bad)
         check(rep[k] == "OK pset T_AF 0x42200000", rep[k], failures)
-        check(rep[k + 1] == "ERR pcommit: fails Params/Effects check()", f"refused commit: {rep[k + 1]!r}", failures)
+        check(rep[k + 1] == "ERR pcommit: invalid model", f"refused commit: {rep[k + 1]!r}", failures)
         check(rep[k + 3].startswith("OK pcommit v1 slot 0 seq 1 crc 0x"), rep[k + 3], failures)
         check(rep[k + 4] == "OK pget T_AS 55.2 0x425ccccd", rep[k + 4], failures)
         check(rep[k + 5] == rep[k + 3].replace("pcommit", "pinfo"), rep[k + 5], failures)

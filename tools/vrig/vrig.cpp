@@ -242,6 +242,7 @@ struct Stats {
   uint64_t ctl_max = 0, ctl_sum = 0, ctl_n = 0;
   uint64_t tick_max = 0, tick_sum = 0;
   uint64_t iv_min = UINT64_MAX, iv_max = 0;
+  double iv_max_s = 0;
   double first_tick_s = -1, last_tick_s = -1;
   // Within the flood window.
   uint64_t flood_ticks = 0, flood_iv_max = 0;
@@ -301,6 +302,7 @@ void write_json(const Options& o, const Stats& st, const char* variant, double s
           "  \"tick_cycles_max\": %llu,\n  \"tick_cycles_mean\": %.1f,\n"
           "  \"cycles_per_tick_budget\": %u,\n"
           "  \"tick_interval_min_us\": %.3f,\n  \"tick_interval_max_us\": %.3f,\n"
+          "  \"tick_interval_max_s\": %.4f,\n"
           "  \"tick_jitter_us\": %.3f,\n"
           "  \"flood_tick_rate_hz\": %.4f,\n  \"flood_tick_interval_max_us\": %.3f,\n"
           "  \"sensor_fault_s\": %.4f,\n  \"heater_off_s\": %.4f,\n"
@@ -312,7 +314,7 @@ void write_json(const Options& o, const Stats& st, const char* variant, double s
           variant, sim_s, (unsigned long long)st.ticks, rate, (unsigned long long)st.ctl_max,
           st.ctl_n ? (double)st.ctl_sum / st.ctl_n : 0.0, (unsigned long long)st.tick_max,
           st.ctl_n ? (double)st.tick_sum / st.ctl_n : 0.0, kFreq / RIG_TICK_HZ, ivmin, ivmax,
-          jitter, flood_len > 0 ? st.flood_ticks / flood_len : 0.0, st.flood_iv_max * cyc_us,
+          st.iv_max_s, jitter, flood_len > 0 ? st.flood_ticks / flood_len : 0.0, st.flood_iv_max * cyc_us,
           o.fault_at, st.heater_off_s, (unsigned long long)st.ticks_after_fault_with_heat,
           (unsigned long long)st.bytes_in, (unsigned long long)st.bytes_out, st.wdtcsr, st.stack_free, st.sp_min, st.sp_min_run, st.sp_min_pc, st.sp_min_s);
   fclose(f);
@@ -420,8 +422,11 @@ struct Rig {
       if (st.ticks > 0) {
         const uint64_t iv = c - st.t_start;
         st.iv_min = sma::min(st.iv_min, iv);
-        st.iv_max = sma::max(st.iv_max, iv);
         const double t = now();
+        if (iv > st.iv_max) {
+          st.iv_max = iv;
+          st.iv_max_s = t;  // when: to find what delayed it
+        }
         if (opt.flood_from >= 0 && t >= opt.flood_from && t < opt.flood_to) {
           st.flood_iv_max = sma::max(st.flood_iv_max, iv);
         }

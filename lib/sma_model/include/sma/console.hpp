@@ -765,7 +765,7 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
     case Op::Help:
       // (fits kReplyMax: the full table is in this header and the README)
       reply.put_f(SMA_F("pos mm|step|sine|traj|mode|volt V|gains|tlim|tele|status|stop|train|"
-                        "pbegin|pset k v|pget k|pcommit|pabort|pinfo"));
+                        "pbegin|pset|pget|pcommit|pabort|pinfo"));
       break;
     default: break;
   }
