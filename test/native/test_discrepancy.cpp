@@ -141,3 +141,52 @@ TEST(Discrepancy, RefittingTheBaseRecoversAnEffectAFitAbsorbed) {
   EXPECT_NEAR(d.params.h, 190.0, 5.0);
   EXPECT_LT(d.rms_final, 1.2 * d.noise_mm);
 }
+
+TEST(Discrepancy, RefittingTheWholeBaseOnATrainingRunNamesTheEffectAndKeepsTheSensorGain) {
+  // What tools/sma fit leaves behind on a training run of a wire with a non-linear heat loss:
+  // the whole base bent to absorb it (h, T_AS, T_AF, the cooling branch, the stroke g), plus a
+  // sensor offset. `--refit-base all` re-identifies every one of those with each candidate. The
+  // sensor gain is held (with g free only their product is observable: a drifting gain would
+  // make the controller track a scaled reference), and no effect is reported at its "no effect"
+  // value.
+  sma::Params truth;
+  truth.T_AS = 54;
+  truth.T_AF = 84;
+  truth.h = 190;
+  truth.g = 1.05;
+  sma::Effects fx;
+  fx.convection_beta_per_K = 0.006;
+  TrainingSignal tr;  // the training run's shape, shortened: faster slope, 5 peaks, all probes
+  tr.plan.slope = 0.05;
+  tr.peaks = {2.0, 1.42, 1.36, 1.31, 1.26};
+  tr.plan.hold_s = 5.0;
+  const RigLog log = simulate_log(truth, fx, tr.sample(), 0.002, 5);
+  sma::Params start = truth;  // biased the way a fit without the effect leaves it
+  start.h = 225;
+  start.T_AS = 55.8;
+  start.T_AF = 88.8;
+  start.T_MSs = 45;
+  start.g = 1.0;
+  sma::Effects given;
+  given.sensor_offset_mm = -0.002;
+  Options o;
+  o.refit_base = all_base(start);
+  EXPECT_EQ(o.refit_base.size(), 9u + 2u * start.n_loops);
+  const Diagnosis d = diagnose(start, log, o, [](const char*) {}, given);
+  ASSERT_FALSE(d.steps.empty());
+  EXPECT_STREQ(d.steps[0].added.spec->name, "convection_nonlinear");
+  for (const Step& s : d.steps) EXPECT_FALSE(at_neutral(s.added)) << s.added.spec->name;
+  for (const FittedEffect& e : d.effects) {
+    if (std::string(e.spec->name) == "convection_nonlinear") {
+      EXPECT_NEAR(e.value[0], 0.006, 0.0012);
+    }
+    if (std::string(e.spec->name) == "sensor_calibration") {
+      EXPECT_EQ(e.value[0], 1.0);  // the gain, held
+    }
+  }
+  EXPECT_NEAR(d.params.h, 190.0, 10.0);
+  EXPECT_NEAR(d.params.T_AS, 54.0, 1.0);
+  EXPECT_NEAR(d.params.T_AF, 84.0, 1.0);
+  EXPECT_NEAR(d.params.g, 1.05, 0.01);
+  EXPECT_LT(d.rms_final, 1.5 * d.noise_mm);
+}

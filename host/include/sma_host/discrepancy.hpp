@@ -435,6 +435,17 @@ inline std::vector<FittedEffect> present_effects(const sma::Effects& fx) {
   return out;
 }
 
+// True if every parameter of `f` is at the value that means "no effect" (sma::Effects'
+// defaults), within its 95 % interval.
+inline bool at_neutral(const FittedEffect& f) {
+  const sma::Effects none;
+  for (int i = 0; i < f.spec->n; ++i) {
+    const double tol = fmax(f.ci95[i], 1e-9 * f.spec->scale[i]);
+    if (fabs(f.value[i] - none.*(f.spec->field[i])) > tol) return false;
+  }
+  return true;
+}
+
 template <class Progress>
 Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Progress progress,
                    const sma::Effects& start = sma::Effects()) {
@@ -447,11 +458,12 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
   for (size_t k = 0; k < all.size(); ++k) all[k] = k;
   d.rms_nominal = rms_on(d.nominal, log, all);
   FitOutcome current = fit_effects(p, present_effects(start), log, split, o.refit_base);
+  std::vector<const EffectSpec*> idle;  // candidates that won at their neutral value
   while (static_cast<int>(current.effects.size()) < o.max_effects) {
     if (current.rms_test < 1.15 * d.noise_mm) break;  // nothing left above the noise
     std::vector<CandidateScore> scores;
     for (const EffectSpec& spec : vocabulary()) {
-      bool have = false;
+      bool have = std::find(idle.begin(), idle.end(), &spec) != idle.end();
       for (const FittedEffect& e : current.effects) have = have || e.spec == &spec;
       if (have) continue;
       progress(spec.name);
@@ -474,6 +486,15 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
     if (!clear_gain || !bic_better) {
       d.rejected = scores;
       break;
+    }
+    if (at_neutral(win.fit.effects.back())) {
+      // The winner's own parameter stayed at "no effect": the gain came from refitting the rest
+      // from a new starting point. Keep that better fit, without the idle effect, and do not
+      // offer it again (it would be reported with a value of 0 +- 0).
+      current = win.fit;
+      current.effects.pop_back();
+      idle.push_back(win.fit.effects.back().spec);
+      continue;
     }
     Step step;
     step.added = win.fit.effects.back();

@@ -16,7 +16,7 @@
 // together (errors up to 0.6 K / 0.9 % instead of 0.1 K / 0.2 %), and with a single step a heat
 // loss that is not linear in the temperature rise (convection_nonlinear) is absorbed into h,
 // T_AS and T_AF. Holds up and down at several levels inside the band give the steady states and
-// the time constants at several temperatures that separate them (bench/e2e_flow.py).
+// the time constants at several temperatures that separate them (tools/vrig/e2e_flow.py).
 // No STL, no heap: evaluated point by point (AVR) or sampled (host, sma_host/signals.hpp).
 #ifndef SMA_TRAINING_HPP
 #define SMA_TRAINING_HPP
