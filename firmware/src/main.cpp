@@ -423,7 +423,13 @@ static void __attribute__((noinline)) handle_line_status(con::LineBuffer::Status
 // until just after the tick. Found by the soak: a status line parsed at the end of a period
 // delayed the tick by 2 ms.
 static con::LineBuffer::Status g_line_waiting = con::LineBuffer::Status::Pending;
-static bool line_slot_open() { return !g_tick_pending && g_div + 3 < RIG_TIMER2_DIV; }
+// g_div is read before the flag: the timer ISR resets g_div and raises g_tick_pending together, so
+// reading the flag first could see "no tick" just before the ISR and then the fresh g_div = 0 (a
+// whole period ahead) and start a 2 ms reply on top of the due tick (the soak's late tick).
+static bool line_slot_open() {
+  const uint8_t div = g_div;
+  return div + 3 < RIG_TIMER2_DIV && !g_tick_pending;
+}
 
 // Reads bytes until one line is complete or a tick is due.
 static void __attribute__((noinline)) poll_serial() {
