@@ -184,6 +184,8 @@ int run(int argc, char** argv) {
   for (size_t k = 0; k < d.rejected.size(); ++k)
     j << (k ? ", " : "") << "{\"name\": " << quote(d.rejected[k].name)
       << ", \"rms_mm_heldout\": " << number(d.rejected[k].rms_test) << "}";
+  j << "],\n  \"pruned\": [";
+  for (size_t k = 0; k < d.pruned.size(); ++k) j << (k ? ", " : "") << quote(d.pruned[k]);
   j << "],\n  \"warnings\": [";
   for (size_t i = 0; i < warnings.size(); ++i) j << (i ? ", " : "") << quote(warnings[i]);
   j << "]\n}\n";
@@ -241,6 +243,9 @@ int run(int argc, char** argv) {
     md << "Stopped: the best remaining candidate, `" << d.rejected[0].name << "`, would change the held-out RMS from "
        << num(d.rms_test_final) << " to " << num(d.rejected[0].rms_test) << " mm, less than the " << num(100 * opt.min_gain)
        << " % needed (the noise is " << num(d.noise_mm) << " mm).\n\n";
+  for (const std::string& n : d.pruned)
+    md << "Dropped at the end: `" << n << "` (added in an early round, its final value is within its 95 % "
+          "interval of no effect: it stood in for an effect added later).\n\n";
   if (d.steps.empty()) {
     md << "No effect of the vocabulary shrinks the gap on held-out parts of this log by " << num(100 * opt.min_gain)
        << " % or more: nothing was added.\n\n";

@@ -213,7 +213,7 @@ def main():
 
     lines = [f"Hidden in the wire: `{HIDDEN}`; the discrepancy workflow added: "
              f"{', '.join(f'`{n}`' for n in added) or 'nothing'}.", "",
-             "| model on the board | sine max mm | sine RMS heating mm | sine RMS mm | multi-step max mm | "
+             "| model on the board | sine max heating mm | sine RMS heating mm | sine RMS mm | multi-step max heating mm | "
              "multi-step RMS heating mm | multi-step RMS mm |", "|---|---|---|---|---|---|---|"]
     for m, label in MODELS:
         s, t = results[(m, "sine")], results[(m, "steps")]

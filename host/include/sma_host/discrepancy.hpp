@@ -45,7 +45,7 @@ struct EffectSpec {
   double sma::Effects::*field[2];
   double lo[2], hi[2];       // physical bounds
   double scale[2];           // typical size: the optimiser works on value / scale
-  double start[2][2];        // starting points [start][param]
+  double start[3][2];        // starting points [start][param]
   int n_starts;
   const char* separate;      // what excitation tells it from its look-alikes
 };
@@ -53,10 +53,12 @@ struct EffectSpec {
 inline const std::vector<EffectSpec>& vocabulary() {
   using E = sma::Effects;
   static const std::vector<EffectSpec> v = {
+      // A third start at 10 ms: a sensor that averages over the 10 ms tick (the firmware's
+      // telemetry) lags by ~5 ms, which LM does not reach from 50 ms past the bound at 0.
       {"sensor_delay", 1, {"delay_s", ""}, {&E::sensor_delay_s, nullptr}, {0, 0}, {2, 0}, {0.1, 1},
-       {{0.05, 0}, {0.4, 0}}, 2, "a sharp voltage step: a delay shifts the whole edge, a lag rounds it"},
+       {{0.05, 0}, {0.4, 0}, {0.01, 0}}, 3, "a sharp voltage step: a delay shifts the whole edge, a lag rounds it"},
       {"sensor_lag", 1, {"tau_s", ""}, {&E::sensor_lag_s, nullptr}, {0, 0}, {5, 0}, {0.2, 1},
-       {{0.1, 0}, {1.0, 0}}, 2, "a sharp voltage step: a lag rounds the edge, a delay shifts it"},
+       {{0.1, 0}, {1.0, 0}, {0.01, 0}}, 3, "a sharp voltage step: a lag rounds the edge, a delay shifts it"},
       {"sensor_calibration", 2, {"gain", "offset_mm"}, {&E::sensor_gain, &E::sensor_offset_mm},
        {0.5, -2}, {2, 2}, {0.1, 0.05}, {{1.0, 0.0}, {1.1, 0.0}}, 2,
        "holds at both ends of the stroke (cold and fully transformed)"},
@@ -413,6 +415,7 @@ struct Diagnosis {
   std::vector<FittedEffect> effects;      // final, jointly refitted
   std::vector<double> nominal, corrected; // predictions
   std::vector<CandidateScore> rejected;   // the last round, when nothing was added
+  std::vector<std::string> pruned;        // added, then at their no-effect value in the end
   sma::Params params;                     // final base model (refitted if Options::refit_base)
   std::vector<double> base_ci95;
   double rms_test_final = 0;              // held-out RMS of the final model
@@ -471,7 +474,8 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
       for (int s = 0; s < spec.n_starts; ++s) {
         std::vector<FittedEffect> trial = current.effects;
         trial.push_back({&spec, {spec.start[s][0], spec.start[s][1]}, {0, 0}});
-        FitOutcome f = fit_effects(p, trial, log, split, o.refit_base);
+        // The base starts where the last round left it (current.params), not at the given model.
+        FitOutcome f = fit_effects(current.params, trial, log, split, o.refit_base);
         if (f.rms_test < best.rms_test) best = f;
       }
       scores.push_back({spec.name, best.rms_test, best});
@@ -506,6 +510,22 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
     d.steps.push_back(step);
     current = win.fit;
   }
+  // An effect added early can end at its no-effect value once the later ones are fitted with it
+  // (it stood in for them): it leaves the final model and the list of added effects.
+  std::vector<FittedEffect> kept;
+  for (const FittedEffect& e : current.effects) {
+    bool added = false;
+    for (const Step& st : d.steps) added = added || st.added.spec == e.spec;
+    if (added && at_neutral(e)) {
+      d.pruned.push_back(e.spec->name);
+      d.steps.erase(std::remove_if(d.steps.begin(), d.steps.end(),
+                                   [&](const Step& st) { return st.added.spec == e.spec; }),
+                    d.steps.end());
+    } else {
+      kept.push_back(e);
+    }
+  }
+  if (!d.pruned.empty()) current = fit_effects(current.params, kept, log, split, o.refit_base);
   d.effects = current.effects;
   d.params = current.params;
   d.base_ci95 = current.base_ci95;
