@@ -16,6 +16,7 @@
 #define SMA_HOST_DISCREPANCY_HPP
 
 #include <math.h>
+#include <string.h>
 #include <Eigen/Dense>
 #include <algorithm>
 #include <string>
@@ -287,6 +288,9 @@ struct Residuals {
   std::vector<FittedEffect> slots;  // value[] overwritten from x
   int n_in;
   const std::vector<const BaseSpec*>* base;  // refitted base parameters, after the effects in x
+  bool hold = false;                         // every effect parameter held (only the base fitted)
+
+  bool fixed(const EffectSpec& e, int i) const { return hold || frozen(e, i, *base); }
 
   int inputs() const { return n_in; }
   int values() const { return static_cast<int>(idx->size()); }
@@ -296,7 +300,7 @@ struct Residuals {
     int j = 0;
     for (FittedEffect& f : s)
       for (int i = 0; i < f.spec->n; ++i)
-        if (!frozen(*f.spec, i, *base)) {
+        if (!fixed(*f.spec, i)) {
           f.value[i] = sma::clamp(x[j] * f.spec->scale[i], f.spec->lo[i], f.spec->hi[i]);
           ++j;
         }
@@ -324,17 +328,19 @@ struct Residuals {
 }  // namespace detail
 
 // Fit the parameters of `effects` (their values are starting points) on the training blocks.
+// hold_effects: the effects stay at their given values and only the base is fitted.
 inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> effects, const RigLog& log,
-                              const Split& split, const std::vector<const BaseSpec*>& base = {}) {
-  detail::Residuals f{&p, &log, &split.train, effects, 0, &base};
+                              const Split& split, const std::vector<const BaseSpec*>& base = {},
+                              bool hold_effects = false) {
+  detail::Residuals f{&p, &log, &split.train, effects, 0, &base, hold_effects};
   for (const FittedEffect& e : effects)
-    for (int i = 0; i < e.spec->n; ++i) f.n_in += frozen(*e.spec, i, base) ? 0 : 1;
+    for (int i = 0; i < e.spec->n; ++i) f.n_in += f.fixed(*e.spec, i) ? 0 : 1;
   f.n_in += static_cast<int>(base.size());
   Eigen::VectorXd x(f.n_in);
   int j = 0;
   for (const FittedEffect& e : effects)
     for (int i = 0; i < e.spec->n; ++i)
-      if (!frozen(*e.spec, i, base)) x[j++] = e.value[i] / e.spec->scale[i];
+      if (!f.fixed(*e.spec, i)) x[j++] = e.value[i] / e.spec->scale[i];
   for (size_t b = 0; b < base.size(); ++b) x[j++] = 0.0;  // offsets from the given base model
   if (f.n_in > 0) {
     Eigen::NumericalDiff<detail::Residuals> nd(f, 1e-4);
@@ -371,7 +377,7 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
     j = 0;
     for (FittedEffect& e : effects)
       for (int i = 0; i < e.spec->n; ++i) {
-        if (frozen(*e.spec, i, base)) {
+        if (f.fixed(*e.spec, i)) {
           e.ci95[i] = 0.0;  // held, not fitted
           continue;
         }
@@ -438,6 +444,36 @@ inline std::vector<FittedEffect> present_effects(const sma::Effects& fx) {
   return out;
 }
 
+// A base that, with the candidate effect at `value`, keeps the given base's steady states: the
+// start a base fitted without the effect needs. A fit that lacks a heat loss growing with the
+// temperature rise (convection_nonlinear, beta) reads it as a larger h and stretched
+// temperatures: P = h_fit A dT_fit = h A dT (1 + beta dT). With h = h_fit / (1 + beta dT_mid)
+// (dT_mid: the middle of the band) every temperature maps by beta dT^2 + dT = dT_fit (1 + beta
+// dT_mid). An ambient offset reads as all temperatures shifted by it. Only refitted parameters
+// are moved (the others stay part of the model). Other effects: the base unchanged.
+inline sma::Params equivalent_base(const sma::Params& p, const EffectSpec& spec, const double* value,
+                                   const std::vector<const BaseSpec*>& base) {
+  const std::string name = spec.name;
+  const double beta = name == "convection_nonlinear" ? value[0] : 0.0;
+  const double shift = name == "ambient_offset" ? value[0] : 0.0;
+  if (beta <= 0.0 && shift == 0.0) return p;
+  const double dT_mid = 0.5 * (p.T_AS + p.T_AF) - p.T_amb;
+  auto map_T = [&](double T) {
+    if (beta <= 0.0) return T + shift;
+    const double c = (T - p.T_amb) * (1.0 + beta * dT_mid);
+    return p.T_amb + (c > 0.0 ? (sqrt(1.0 + 4.0 * beta * c) - 1.0) / (2.0 * beta) : c);
+  };
+  sma::Params q = p;
+  for (const BaseSpec* b : base) {
+    const std::string n = b->name;
+    if (n == "h" && beta > 0.0) b->ref(q) = p.h / (1.0 + beta * dT_mid);
+    if (n[0] == 'T' && n != "T_amb") b->ref(q) = map_T(b->get(p));
+    if (n == "e") b->ref(q) = map_T(p.e);  // eq 10: T_MSi = q eps_h + e
+    if (n == "q") b->ref(q) = map_T(p.q + p.e) - map_T(p.e);
+  }
+  return q.check() == nullptr ? q : p;
+}
+
 // True if every parameter of `f` is at the value that means "no effect" (sma::Effects'
 // defaults), within its 95 % interval.
 inline bool at_neutral(const FittedEffect& f) {
@@ -471,12 +507,30 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
       if (have) continue;
       progress(spec.name);
       FitOutcome best;
-      for (int s = 0; s < spec.n_starts; ++s) {
-        std::vector<FittedEffect> trial = current.effects;
-        trial.push_back({&spec, {spec.start[s][0], spec.start[s][1]}, {0, 0}});
-        // The base starts where the last round left it (current.params), not at the given model.
-        FitOutcome f = fit_effects(current.params, trial, log, split, o.refit_base);
-        if (f.rms_test < best.rms_test) best = f;
+      // Starts: the spec's values from two bases, the last round's (current.params) and the given
+      // one (p): the base refit can land in another basin than the given fit's, and the effect's
+      // own basin may only be reachable from one of them; then "no effect" from the last round's
+      // (its optimum: LM can only improve on it). The best held-out RMS wins.
+      // A third base for the effects a fit reads as other parameters (equivalent_base): the given
+      // one mapped so that, with the effect at its start value, its steady states stay the same.
+      const sma::Effects none;
+      const int n_bases = o.refit_base.empty() ? 1 : 3;
+      for (int b = 0; b < n_bases; ++b) {
+        for (int s = 0; s <= spec.n_starts; ++s) {
+          const bool neutral = s == spec.n_starts;
+          if (neutral && b > 0) continue;
+          std::vector<FittedEffect> trial = current.effects;
+          FittedEffect add{&spec, {0, 0}, {0, 0}};
+          for (int i = 0; i < spec.n; ++i) add.value[i] = neutral ? none.*(spec.field[i]) : spec.start[s][i];
+          trial.push_back(add);
+          sma::Params base0 = b == 0 ? current.params : p;
+          if (b == 2) {
+            base0 = equivalent_base(p, spec, add.value, o.refit_base);
+            if (memcmp(&base0, &p, sizeof p) == 0) continue;  // not such an effect: same as base 1
+          }
+          const FitOutcome f = fit_effects(base0, trial, log, split, o.refit_base);
+          if (f.rms_test < best.rms_test) best = f;
+        }
       }
       scores.push_back({spec.name, best.rms_test, best});
     }
