@@ -190,3 +190,42 @@ TEST(Discrepancy, RefittingTheWholeBaseOnATrainingRunNamesTheEffectAndKeepsTheSe
   EXPECT_NEAR(d.params.g, 1.05, 0.01);
   EXPECT_LT(d.rms_final, 1.5 * d.noise_mm);
 }
+
+TEST(Discrepancy, EquivalentBaseKeepsTheSteadyStatesOfTheGivenFit) {
+  // The start a base fitted without convection_nonlinear needs: with beta, each mapped
+  // temperature needs the same heating power as the fitted one did with beta = 0
+  // (P / A = h dT (1 + beta dT)); h and the refitted temperatures move, nothing else.
+  sma::Params fit;
+  fit.h = 219;
+  fit.T_AS = 55.8;
+  fit.T_AF = 88.8;
+  const double beta = 0.006;
+  const EffectSpec& conv = *find_effect("convection_nonlinear");
+  const std::vector<const BaseSpec*> base = all_base(fit);
+  const sma::Params q = equivalent_base(fit, conv, &beta, base);
+  EXPECT_LT(q.h, fit.h);
+  for (const BaseSpec* b : base) {
+    const std::string n = b->name;
+    if (n[0] != 'T') continue;
+    const double dT_fit = b->get(fit) - fit.T_amb, dT = b->get(q) - q.T_amb;
+    EXPECT_NEAR(q.h * dT * (1 + beta * dT), fit.h * dT_fit, 1e-9 * fit.h * dT_fit) << n;
+    // Equal at the band's middle (where the linear fit matched the loss); above it the loss grows
+    // faster than the fit assumed, so the same power reaches less, below it more.
+    const double dT_mid = 0.5 * (fit.T_AS + fit.T_AF) - fit.T_amb;
+    if (dT_fit > dT_mid + 1e-9) {
+      EXPECT_LT(dT, dT_fit) << n;
+    } else if (dT_fit < dT_mid - 1e-9 && dT_fit > 0) {
+      EXPECT_GT(dT, dT_fit) << n;
+    }
+  }
+  EXPECT_EQ(q.T_s, fit.T_s);  // not refitted: part of the model, unchanged
+  // An ambient offset shifts every refitted temperature; other effects leave the base alone.
+  const double off = 1.5;
+  const sma::Params a = equivalent_base(fit, *find_effect("ambient_offset"), &off, base);
+  EXPECT_DOUBLE_EQ(a.T_AF, fit.T_AF + off);
+  EXPECT_DOUBLE_EQ(a.h, fit.h);
+  const double kR = 0.1;
+  const sma::Params r = equivalent_base(fit, *find_effect("resistance_phase"), &kR, base);
+  EXPECT_EQ(r.h, fit.h);
+  EXPECT_EQ(r.T_AF, fit.T_AF);
+}

@@ -44,3 +44,20 @@ TEST(Metrics, StepScoresFromArrivalAndReportsOvershoot) {
 }
 
 }  // namespace
+
+namespace {
+// A step the position never reaches (it settles 0.1 mm short): that shortfall is its error while
+// heating, not zero.
+TEST(Metrics, StepNeverReachedCountsItsShortfall) {
+  std::vector<sma_host::Sample> run;
+  for (int k = 0; k < 1000; ++k) {
+    const double t = 0.01 * k;
+    run.push_back(at(t, 1.0, fmin(t, 0.9)));
+  }
+  const sma_host::Metrics m = sma_host::step_metrics(run, 10.0);
+  EXPECT_NEAR(m.max_heat_mm, 0.1, 1e-12);
+  EXPECT_NEAR(m.rms_heat_mm, 0.1, 1e-12);
+  EXPECT_NEAR(m.sse_mm, 0.1, 1e-12);
+  EXPECT_EQ(m.overshoot_pct, 0.0);
+}
+}  // namespace

@@ -13,7 +13,7 @@ with the temperature rise). Everything goes through the project's own tools, as 
                               --refit-base all
   4. on the board:            tools/sma upload PARAMS.json --port PTY   (main image, its EEPROM
                               kept in a file, read back and verified by upload)
-  5. the paper's sine and multi-step (inverse model + PID, the firmware's default gains), run by
+  5. the paper's sine and multi-step (inverse model + PID, the gains of GAINS), run by
      the main image with that EEPROM, for four models on the board: none uploaded (the paper's
      parameters, the firmware's fallback), the fitted one, fitted + effects, and the true wire
      (the same controller on a plant that matches its model exactly).
@@ -44,6 +44,11 @@ WIRE = {"T_AS": 54.0, "T_AF": 84.0, "h": 190.0, "g": 1.05,
         "effects": {"convection_nonlinear": {"beta_per_K": 0.006}}}
 HIDDEN = "convection_nonlinear"
 TESTS = (("sine", "sine", 150.0), ("steps", "step", 150.0))
+# The PID gains of each test: the tuner's rig-like optimum for inverse + PID (bench_tracking,
+# README "Results"), the same for every model. On steps it is nearly feedforward alone: a PID
+# that does not cool a wire on its heating branch (Model choices) would otherwise lock in
+# whatever overshoot the first second leaves, and the table would measure that, not the model.
+GAINS = {"sine": (12.1, 3.125, 0.0), "steps": (0.03125, 0.0, 0.064)}
 MODELS = (("paper", "paper's parameters (nothing uploaded)"), ("fitted", "fitted"),
           ("effects", "fitted + effects"), ("true", "the true wire (model = plant)"))
 # --check: "clearly best" and "close to the exact model", on max and RMS |error| while heating.
@@ -115,7 +120,7 @@ def paper_test(a, model, ee, test, command, duration):
     log_path = os.path.join(a.out, name + ".csv")
     script = log_path + ".script"
     with open(script, "w") as f:
-        f.write(f"0.0 tele on\n0.02 mode ffpid\n0.05 {command}\n")
+        f.write("0.0 tele on\n0.02 mode ffpid\n0.03 gains %g %g %g\n0.05 %s\n" % (*GAINS[test], command))
     ee_copy = os.path.join(a.out, name + ".eeprom")  # a run saves its EEPROM at the end: one each
     if os.path.exists(ee):
         shutil.copy(ee, ee_copy)

@@ -16,7 +16,6 @@
 #define SMA_HOST_DISCREPANCY_HPP
 
 #include <math.h>
-#include <string.h>
 #include <Eigen/Dense>
 #include <algorithm>
 #include <string>
@@ -526,7 +525,9 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
           sma::Params base0 = b == 0 ? current.params : p;
           if (b == 2) {
             base0 = equivalent_base(p, spec, add.value, o.refit_base);
-            if (memcmp(&base0, &p, sizeof p) == 0) continue;  // not such an effect: same as base 1
+            bool moved = false;
+            for (const BaseSpec* bs : o.refit_base) moved = moved || bs->get(base0) != bs->get(p);
+            if (!moved) continue;  // not such an effect: the same start as base 1
           }
           const FitOutcome f = fit_effects(base0, trial, log, split, o.refit_base);
           if (f.rms_test < best.rms_test) best = f;

@@ -4,7 +4,8 @@
 //  - the sine's first period is a start-up transient (the wire starts cold): it is skipped;
 //  - on steps the jump itself is not a tracking error of the controller: heating/cooling errors
 //    count from the first time the position reaches the new setpoint (that is overshoot and
-//    the error while holding), and the rise is reported as the settling time.
+//    the error while holding), and the rise is reported as the settling time; a step never
+//    reached counts its last 2 s (where it settled short).
 #ifndef SMA_HOST_METRICS_HPP
 #define SMA_HOST_METRICS_HPP
 
@@ -66,7 +67,7 @@ inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool 
     const bool up = step > 0;
     bool arrived = false;
     double last_out = run[start].t;  // last time outside the 5 % band
-    double tail_sum = 0;
+    double tail_sum = 0, tail_sq = 0, tail_max = 0;
     long tail_n = 0;
     for (size_t k = start; k < end; ++k) {
       const double e = err_of(run[k], measured);
@@ -87,6 +88,8 @@ inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool 
       if (fabs(e) > 0.05 * fabs(step)) last_out = run[k].t;
       if (run[k].t >= run[start].t + step_s - 2.0) {
         tail_sum += e;
+        tail_sq += e * e;
+        tail_max = fmax(tail_max, fabs(e));
         ++tail_n;
       }
     }
@@ -95,6 +98,17 @@ inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool 
       ++n_settle;
     }
     if (tail_n) m.sse_mm = fmax(m.sse_mm, fabs(tail_sum / static_cast<double>(tail_n)));
+    // A step the position never reached still has an error while heating (cooling): its last
+    // 2 s, where it settled short of the setpoint.
+    if (!arrived && fabs(step) > 1e-9 && tail_n) {
+      if (up) {
+        m.max_heat_mm = fmax(m.max_heat_mm, tail_max);
+        heat_sum += tail_sq;
+        heat_n += tail_n;
+      } else {
+        m.max_cool_mm = fmax(m.max_cool_mm, tail_max);
+      }
+    }
     start = end;
   }
   m.rms_mm = n ? sqrt(sum / static_cast<double>(n)) : 0;

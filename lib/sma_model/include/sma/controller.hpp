@@ -87,10 +87,12 @@ class Controller {
   // The wire temperature estimate advances with the voltage actually commanded (eq 1 with the
   // model's effects, WireStep): what the safety limit and the PID's branch limits watch.
   T step(T ref, T measured) {
+    // The fraction for a phase-dependent resistance comes from the measurement (V_hold and the
+    // estimate); latent heat is left out of the estimate (d(eps)/dt of a noisy measurement
+    // would be all noise).
+    eps_meas_ = is_finite(measured) ? mech_.fraction(measured) : T(0);
     v_ = compute(ref, measured);
-    // The fraction for a phase-dependent resistance comes from the measurement; latent heat
-    // is left out of the estimate (d(eps)/dt of a noisy measurement would be all noise).
-    T_wire_ = wire_step_(T_wire_, v_, is_finite(measured) ? mech_.fraction(measured) : T(0));
+    T_wire_ = wire_step_(T_wire_, v_, eps_meas_);
     return v_;
   }
 
@@ -108,8 +110,9 @@ class Controller {
     c.v_max = v_max;
     return c;
   }
-  // The voltage that holds the estimated wire temperature (eq 17, dT/dt = 0).
-  T thermal_hold() const { return inverse_.thermal().voltage_for(T_wire_, T(0)); }
+  // The voltage that holds the estimated wire temperature (eq 17, dT/dt = 0), at the measured
+  // fraction: the same resistance R(eps) the estimate uses (phase-dependent resistance).
+  T thermal_hold() const { return inverse_.thermal().voltage_for(T_wire_, T(0), eps_meas_); }
 
   T compute(T ref, T measured) {
     v1_ = T(0);
@@ -152,6 +155,7 @@ class Controller {
   Pid<T> pid_;
   WireStep<T> wire_step_;
   T T_wire_;
+  T eps_meas_ = T(0);  // austenite fraction of the last measurement
   T v_max_;
   bool valid_;
   Mode mode_ = Mode::Off;
