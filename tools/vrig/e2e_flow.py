@@ -37,6 +37,8 @@ import sys
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from paper_tests import read_log  # noqa: E402  (a rig log as {column: numpy array})
 SMA = os.path.join(ROOT, "tools", "sma")
 # The user's wire: transformation 4 K higher (T_AS, T_AF), 15 % more convection (h), 5 % more
 # stroke (g) than the paper's, and a hidden non-linear convection (the paper's model is linear).
@@ -103,15 +105,6 @@ def training_duration(build, slope):
         out = os.path.join(d, "plan.csv")
         run([sim, "--volt", "train", "--train-slope", f"{slope:g}", "--dt", "1", "--out", out], "sma_sim")
         return read_log(out)["t_s"][-1] + 1.0
-
-
-def read_log(path):
-    import numpy as np
-    with open(path) as f:
-        lines = [ln.strip() for ln in f if ln.strip() and not ln.startswith("#")]
-    names = lines[0].split(",")
-    rows = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
-    return {n: rows[:, i] for i, n in enumerate(names)}
 
 
 def paper_test(a, model, ee, test, command, duration):
