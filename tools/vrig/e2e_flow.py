@@ -46,10 +46,11 @@ WIRE = {"T_AS": 54.0, "T_AF": 84.0, "h": 190.0, "g": 1.05,
         "effects": {"convection_nonlinear": {"beta_per_K": 0.006}}}
 HIDDEN = "convection_nonlinear"
 TESTS = (("sine", "sine", 150.0), ("steps", "step", 150.0))
-# The PID gains of each test: the tuner's rig-like optimum for inverse + PID (bench_tracking,
-# README "Results"), the same for every model. On steps it is nearly feedforward alone: a PID
-# that does not cool a wire on its heating branch (Model choices) would otherwise lock in
-# whatever overshoot the first second leaves, and the table would measure that, not the model.
+# The PID gains of each test, the same for every model: the sine's are the firmware's defaults
+# (the tuner's sine optimum, bench_tracking); on steps nearly feedforward alone (the tuner's step
+# optimum is at or near zero gains): a PID that does not cool a wire on its heating branch
+# (README, Model choices) would otherwise lock in whatever overshoot the first second leaves,
+# and the table would measure that, not the model.
 GAINS = {"sine": (12.1, 3.125, 0.0), "steps": (0.03125, 0.0, 0.064)}
 MODELS = (("paper", "paper's parameters (nothing uploaded)"), ("fitted", "fitted"),
           ("effects", "fitted + effects"), ("true", "the true wire (model = plant)"))
