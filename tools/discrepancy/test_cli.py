@@ -75,6 +75,7 @@ def main():
     fails_with([log, "--params", params, "--out", out], "bogus_key")
     fails_with([log], "--out")
     fails_with([log, "--out", out, "--min-gain", "2"], "--min-gain")
+    fails_with([log, "--out", out, "--refit-base", "h,bogus"], "bogus", "all, h, T_AS")
     print("1 passed, 0 failed")
 
 

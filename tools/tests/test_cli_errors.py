@@ -85,3 +85,30 @@ def test_help_of_every_command(binaries):
     for cmd in ("sim", "fit", "plot", "console", "build"):
         r = run_sma(cmd, "--help")
         assert "usage" in r.stdout.lower()
+
+
+def test_training_probe_out_of_range_is_refused(binaries, tmp_path):
+    r = run_sma("sim", "--volt", "train", "--train-probe", "1.2,7", "--out", tmp_path / "t.csv", check=False)
+    assert r.returncode != 0
+    assert "training signal: every probe level must be in 0..5 V" in r.stderr
+
+
+def test_a_port_that_cannot_be_opened_is_named(binaries, tmp_path):
+    for cmd in (["console", "--port", "/dev/nonexistent-sma-port", "--send", "status"],
+                ["upload", str(tmp_path / "p.json"), "--port", "/dev/nonexistent-sma-port"]):
+        (tmp_path / "p.json").write_text("{}")
+        r = run_sma(*cmd, check=False)
+        assert r.returncode == 2, (cmd, r.stderr)
+        assert "cannot open /dev/nonexistent-sma-port" in r.stderr
+
+
+def test_vrig_refuses_a_bad_speed(binaries):
+    import os
+    import subprocess
+    build_tools = os.path.dirname(os.path.dirname(binaries["sma_sim"]))  # BUILD/tools
+    vrig = os.path.join(build_tools, "vrig", "vrig")
+    if not os.path.exists(vrig):
+        pytest.skip("no vrig in this build")
+    for bad in ("0", "-1", "nan", "5000"):
+        r = subprocess.run([vrig, "--native", "--speed", bad, "--duration", "1"], capture_output=True, text=True)
+        assert r.returncode == 2 and "--speed must be in (0, 1000]" in r.stderr, (bad, r.stderr)

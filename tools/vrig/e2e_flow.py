@@ -29,9 +29,7 @@ import argparse
 import concurrent.futures
 import json
 import os
-import re
 import shutil
-import signal
 import subprocess
 import sys
 import time
@@ -39,6 +37,7 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from paper_tests import read_log  # noqa: E402  (a rig log as {column: numpy array})
+from pty_board import PtyBoard  # noqa: E402
 SMA = os.path.join(ROOT, "tools", "sma")
 # The user's wire: transformation 4 K higher (T_AS, T_AF), 15 % more convection (h), 5 % more
 # stroke (g) than the paper's, and a hidden non-linear convection (the paper's model is linear).
@@ -68,34 +67,6 @@ def run(cmd, what, **kw):
     if r.returncode != 0:
         sys.exit(f"{what} failed (exit {r.returncode}): {' '.join(cmd)}\n{r.stdout[-1500:]}{r.stderr[-3000:]}")
     return r
-
-
-class Board:
-    """A firmware image in the virtual rig, its UART on a pseudo-terminal (what a user's USB
-    serial port is), simulated `speed` times faster than wall-clock time."""
-
-    def __init__(self, vrig, elf, duration, speed, extra=()):
-        self.proc = subprocess.Popen([vrig, elf, "--pty", "--speed", f"{speed:g}", "--duration",
-                                      f"{duration:.0f}", "--quiet", *extra],
-                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        self.port = None
-        end = time.time() + 15
-        while self.port is None and time.time() < end:
-            m = re.search(r"UART0 on (\S+)", self.proc.stderr.readline())
-            if m:
-                self.port = m.group(1)
-        if self.port is None:
-            self.close()
-            sys.exit("vrig --pty did not report its pseudo-terminal")
-        time.sleep(0.5)
-
-    def close(self):
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)  # vrig ends cleanly and saves its --eeprom file
-            try:
-                self.proc.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
 
 
 def training_duration(build, slope):
@@ -160,8 +131,7 @@ def main():
     log(f"1/5 training run: train image in the virtual rig, {dur:.0f} s of rig time at up to {a.speed:g}x "
         f"(~{dur / a.speed / 60:.0f} min or more), over the console ...")
     train = os.path.join(a.out, "train.csv")
-    board = Board(a.vrig, train_elf, dur + 120, a.speed, ["--params", a.wire, "--noise-mm", "0.002"])
-    try:
+    with PtyBoard(a.vrig, train_elf, dur + 120, a.speed, ["--params", a.wire, "--noise-mm", "0.002"]) as board:
         # tlim 140: until the user's model is on the board, the temperature the latch watches is
         # the paper's wire's, which the training's 2 V first peak takes to ~132 degC (this wire,
         # with more heat loss, reaches ~88 degC); the default 110 degC limit would end the run.
@@ -169,8 +139,6 @@ def main():
              "--send", f"train {a.slope:g}", "--record", train, "--until", "train done", "--duration",
              f"{(dur + 120) / min(a.speed, 2.0):.0f}", "--status", "30", "--timeout", "5", "-q"],
             "tools/sma console (training run)", env=env)
-    finally:
-        board.close()
 
     # 2. fit, 3. discrepancy
     log("2/5 tools/sma fit train.csv ...")
@@ -193,11 +161,8 @@ def main():
             os.remove(m)  # a blank EEPROM: the firmware falls back to the paper's parameters
     for i, (model, src) in enumerate(sources.items()):
         log(f"4/5 tools/sma upload {os.path.relpath(src, a.out)} ({i + 1}/3) ...")
-        board = Board(a.vrig, a.elf, 600, a.speed, ["--eeprom", eeprom[model]])
-        try:
+        with PtyBoard(a.vrig, a.elf, 600, a.speed, ["--eeprom", eeprom[model]]) as board:
             up = run([SMA, "upload", src, "--port", board.port], "tools/sma upload", env=env)
-        finally:
-            board.close()
         with open(os.path.join(a.out, f"upload_{model}.txt"), "w") as f:
             f.write(up.stdout + up.stderr)
 

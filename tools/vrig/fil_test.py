@@ -52,6 +52,8 @@ import shutil
 import subprocess
 import sys
 
+from pty_board import PtyBoard
+
 
 def run_vrig(args, name, script_lines, duration, extra=(), native=False):
     d = os.path.join(args.out, name)
@@ -389,9 +391,6 @@ def t_model(args):
 
 def t_upload(args):
     """tools/sma upload through vrig's pseudo-terminal."""
-    import re
-    import time
-
     name = "upload"
     d = os.path.join(args.out, name)
     os.makedirs(d, exist_ok=True)
@@ -405,31 +404,18 @@ def t_upload(args):
     helper = args.sma_params or os.path.join(os.path.dirname(os.path.abspath(args.vrig)), "sma_params")
     sma = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "sma")
     failures = []
-    vr = subprocess.Popen([args.vrig, args.elf, "--pty", "--duration", "40", "--eeprom", ee, "--quiet"],
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    port = None
-    t_end = time.time() + 10
-    while port is None and time.time() < t_end:
-        ln = vr.stderr.readline()
-        m = re.search(r"UART0 on (\S+)", ln)
-        if m:
-            port = m.group(1)
-    if port is None:
-        vr.kill()
-        return name, {}, ["vrig --pty did not report its pseudo-terminal"]
-    time.sleep(0.5)
-    env = dict(os.environ, SMA_PARAMS=helper)
-    up = subprocess.run([sys.executable, sma, "upload", wire, "--port", port], stdout=subprocess.PIPE,
-                        stderr=subprocess.PIPE, text=True, env=env, timeout=120)
+    try:
+        board = PtyBoard(args.vrig, args.elf, 40, extra=["--eeprom", ee])
+    except RuntimeError as e:
+        return name, {}, [str(e)]
+    with board:  # leaving it: SIGINT, vrig writes the EEPROM file
+        env = dict(os.environ, SMA_PARAMS=helper)
+        up = subprocess.run([sys.executable, sma, "upload", wire, "--port", board.port], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env, timeout=120)
     with open(os.path.join(d, "upload.txt"), "w") as f:
         f.write(up.stdout + up.stderr)
     check(up.returncode == 0, f"upload exit {up.returncode}: {up.stderr[-400:]}", failures)
     check("57 keys" in up.stdout, "upload did not verify 57 keys", failures)
-    vr.send_signal(2)  # SIGINT (Ctrl-C) ends vrig cleanly: it writes the EEPROM file
-    try:
-        vr.wait(timeout=20)
-    except subprocess.TimeoutExpired:
-        vr.kill()
     lines, _, st = run_vrig(args, name, ["0.05 pinfo", "0.1 pget T_AS", "0.2 pget loops", "0.3 pget delay_s",
                                          "0.4 pget beta_per_K"], 0.5, ["--eeprom", ee])
     rep = [s for _, s in replies(lines)]
@@ -445,40 +431,24 @@ def t_upload(args):
 def t_console(args):
     """tools/sma console against the virtual rig, through its pseudo-terminal: commands get their
     replies, telemetry is recorded as a rig log, and leaving the console turns the heater off."""
-    import re
-    import time
-
     name = "console"
     d = os.path.join(args.out, name)
     os.makedirs(d, exist_ok=True)
     sma = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "sma")
     failures = []
-    vr = subprocess.Popen([args.vrig, args.elf, "--pty", "--duration", "120", "--quiet"],
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    port = None
-    t_end = time.time() + 10
-    while port is None and time.time() < t_end:
-        m = re.search(r"UART0 on (\S+)", vr.stderr.readline())
-        if m:
-            port = m.group(1)
-    if port is None:
-        vr.kill()
-        return name, {}, ["vrig --pty did not report its pseudo-terminal"]
-    time.sleep(0.5)
-    rec = os.path.join(d, "run.csv")
     try:
+        board = PtyBoard(args.vrig, args.elf, 120)
+    except RuntimeError as e:
+        return name, {}, [str(e)]
+    port = board.port
+    rec = os.path.join(d, "run.csv")
+    with board:
         c1 = subprocess.run([sys.executable, sma, "console", "--port", port, "--send", "tele on", "--send",
                              "pos 0.4", "--duration", "3", "--record", rec, "--status", "0"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=60)
         c2 = subprocess.run([sys.executable, sma, "console", "--port", port, "--send", "status", "--duration",
                              "0.5", "--status", "0"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             timeout=60)
-    finally:
-        vr.send_signal(2)
-        try:
-            vr.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            vr.kill()
     with open(os.path.join(d, "console.txt"), "w") as f:
         f.write(c1.stdout + c1.stderr + c2.stdout + c2.stderr)
     check(c1.returncode == 0, f"console exit {c1.returncode}: {c1.stderr[-400:]}", failures)

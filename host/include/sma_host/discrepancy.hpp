@@ -16,6 +16,7 @@
 #define SMA_HOST_DISCREPANCY_HPP
 
 #include <math.h>
+#include <string.h>
 #include <Eigen/Dense>
 #include <algorithm>
 #include <string>
@@ -48,6 +49,9 @@ struct EffectSpec {
   double start[3][2];        // starting points [start][param]
   int n_starts;
   const char* separate;      // what excitation tells it from its look-alikes
+  // A base parameter each parameter is only observable jointly with (nullptr: none): held at
+  // its given value when that base parameter is refitted.
+  const char* held_with[2];
 };
 
 inline const std::vector<EffectSpec>& vocabulary() {
@@ -56,21 +60,21 @@ inline const std::vector<EffectSpec>& vocabulary() {
       // A third start at 10 ms: a sensor that averages over the 10 ms tick (the firmware's
       // telemetry) lags by ~5 ms, which LM does not reach from 50 ms past the bound at 0.
       {"sensor_delay", 1, {"delay_s", ""}, {&E::sensor_delay_s, nullptr}, {0, 0}, {2, 0}, {0.1, 1},
-       {{0.05, 0}, {0.4, 0}, {0.01, 0}}, 3, "a sharp voltage step: a delay shifts the whole edge, a lag rounds it"},
+       {{0.05, 0}, {0.4, 0}, {0.01, 0}}, 3, "a sharp voltage step: a delay shifts the whole edge, a lag rounds it", {nullptr, nullptr}},
       {"sensor_lag", 1, {"tau_s", ""}, {&E::sensor_lag_s, nullptr}, {0, 0}, {5, 0}, {0.2, 1},
-       {{0.1, 0}, {1.0, 0}, {0.01, 0}}, 3, "a sharp voltage step: a lag rounds the edge, a delay shifts it"},
+       {{0.1, 0}, {1.0, 0}, {0.01, 0}}, 3, "a sharp voltage step: a lag rounds the edge, a delay shifts it", {nullptr, nullptr}},
       {"sensor_calibration", 2, {"gain", "offset_mm"}, {&E::sensor_gain, &E::sensor_offset_mm},
        {0.5, -2}, {2, 2}, {0.1, 0.05}, {{1.0, 0.0}, {1.1, 0.0}}, 2,
-       "holds at both ends of the stroke (cold and fully transformed)"},
+       "holds at both ends of the stroke (cold and fully transformed)", {"g", nullptr}},  // gain x g
       {"ambient_offset", 1, {"offset_K", ""}, {&E::ambient_offset_K, nullptr}, {-30, 0}, {30, 0}, {2, 1},
-       {{-3, 0}, {3, 0}}, 2, "steady holds at several voltages: an offset shifts all steady states equally"},
+       {{-3, 0}, {3, 0}}, 2, "steady holds at several voltages: an offset shifts all steady states equally", {nullptr, nullptr}},
       {"convection_nonlinear", 1, {"beta_per_K", ""}, {&E::convection_beta_per_K, nullptr}, {0, 0},
        {0.05, 0}, {0.005, 1}, {{0.002, 0}, {0.01, 0}}, 2,
-       "steady holds at several voltages: its loss grows with the temperature rise"},
+       "steady holds at several voltages: its loss grows with the temperature rise", {nullptr, nullptr}},
       {"resistance_phase", 1, {"k_R", ""}, {&E::resistance_k, nullptr}, {-0.5, 0}, {1.0, 0}, {0.1, 1},
-       {{-0.1, 0}, {0.1, 0}}, 2, "holds inside the transformation band at a constant voltage"},
+       {{-0.1, 0}, {0.1, 0}}, 2, "holds inside the transformation band at a constant voltage", {nullptr, nullptr}},
       {"latent_heat", 1, {"L_J", ""}, {&E::latent_heat_J, nullptr}, {0, 0}, {20, 0}, {1, 1},
-       {{0.5, 0}, {3.0, 0}}, 2, "fast voltage steps through the transformation band"},
+       {{0.5, 0}, {3.0, 0}}, 2, "fast voltage steps through the transformation band", {nullptr, nullptr}},
   };
   return v;
 }
@@ -261,13 +265,14 @@ struct FitOutcome {
   std::string corr_pair;          // which two
 };
 
-// A sensor's calibration gain and the wire's stroke g only act as their product on a position
-// log: with g refitted, the gain stays as given (else the two drift apart and the controller,
-// which reads positions through the gain, tracks a scaled reference).
+// Held, not fitted: a parameter only observable jointly with a refitted base parameter (the
+// vocabulary's held_with; e.g. a sensor's calibration gain and the stroke g act only as their
+// product on a position log: fitting both, they drift apart and the controller, which reads
+// positions through the gain, tracks a scaled reference).
 inline bool frozen(const EffectSpec& e, int i, const std::vector<const BaseSpec*>& base) {
-  if (std::string(e.name) != "sensor_calibration" || std::string(e.param[i]) != "gain") return false;
+  if (!e.held_with[i]) return false;
   for (const BaseSpec* b : base)
-    if (std::string(b->name) == "g") return true;
+    if (strcmp(b->name, e.held_with[i]) == 0) return true;
   return false;
 }
 

@@ -184,6 +184,18 @@ class ConsoleClient:
             r[0], r[2], r[3], r[3] - r[2], r[1], r[4])
 
 
+def open_port(url, baud, prog, err):
+    """The serial port (a device, a pseudo-terminal or a pyserial URL such as loop://), or None
+    after a message naming it; shared by `sma console` and `sma upload`."""
+    import serial
+
+    try:
+        return serial.serial_for_url(url, baudrate=baud, timeout=0.05)
+    except (serial.SerialException, ValueError) as e:
+        err.write("%s: cannot open %s: %s\n" % (prog, url, e))
+        return None
+
+
 def run(args, port=None, stdin=None, out=sys.stdout, err=sys.stderr):
     """The `sma console` command. Returns the exit code: 0 ok, 1 ERR reply to a --send command,
     2 port cannot be opened, 3 link lost, 4 no reply, 5 --until text not seen within --duration,
@@ -192,12 +204,8 @@ def run(args, port=None, stdin=None, out=sys.stdout, err=sys.stderr):
     import threading
 
     if port is None:
-        import serial
-
-        try:
-            port = serial.serial_for_url(args.port, baudrate=args.baud, timeout=0.05)
-        except (serial.SerialException, ValueError) as e:
-            err.write("sma console: cannot open %s: %s\n" % (args.port, e))
+        port = open_port(args.port, args.baud, "sma console", err)
+        if port is None:
             return 2
     rec_file = None
     recorder = None

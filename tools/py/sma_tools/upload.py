@@ -155,12 +155,8 @@ def run(args, port=None, out=sys.stdout, err=sys.stderr, helper=None):
         err.write("sma upload: %s\n" % e)
         return 1
     if port is None:
-        import serial
-
-        try:
-            port = serial.serial_for_url(args.port, baudrate=args.baud, timeout=0.05)
-        except (serial.SerialException, ValueError) as e:
-            err.write("sma upload: cannot open %s: %s\n" % (args.port, e))
+        port = console.open_port(args.port, args.baud, "sma upload", err)
+        if port is None:
             return 2
     c = console.ConsoleClient(port)
     try:
