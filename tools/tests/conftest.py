@@ -15,7 +15,7 @@ SMA = os.path.join(TOOLS, "sma")
 def binaries():
     """Paths of sma_sim / sma_fit (from CTest's environment, or built on first use); exported so
     that `tools/sma` run by the tests uses the same ones."""
-    from sma_tools import build
+    from sma import build
 
     paths = {name: build.tool(name) for name in ("sma_sim", "sma_fit")}
     os.environ["SMA_SIM"] = paths["sma_sim"]

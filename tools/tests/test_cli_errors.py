@@ -112,3 +112,17 @@ def test_vrig_refuses_a_bad_speed(binaries):
     for bad in ("0", "-1", "nan", "5000"):
         r = subprocess.run([vrig, "--native", "--speed", bad, "--duration", "1"], capture_output=True, text=True)
         assert r.returncode == 2 and "--speed must be in (0, 1000]" in r.stderr, (bad, r.stderr)
+
+
+def test_fit_passes_every_option_of_sma_fit_through(binaries, tmp_path):
+    # An option only sma_fit declares reaches it (the CLI does not re-declare the helper's options),
+    # and an unknown one is refused by sma_fit itself, named.
+    r = run_sma("fit", "--help")
+    assert "--loops-at-reversals" in r.stdout + r.stderr and "--no-plots" in r.stdout
+    r = run_sma("fit", tmp_path / "none.csv", "--out", tmp_path / "o", "--no-such-option", check=False)
+    assert r.returncode != 0 and "--no-such-option" in r.stderr, r.stderr
+
+
+def test_plot_passes_replay_options_through(binaries, tmp_path):
+    r = run_sma("plot", "--help")
+    assert "usage" in r.stdout.lower() and "--params" in r.stdout

@@ -9,7 +9,7 @@ import types
 
 import pytest
 
-from sma_tools import console
+from sma import console
 from conftest import SMA, run_sma
 
 

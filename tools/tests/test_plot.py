@@ -20,7 +20,7 @@ def test_replay_gives_the_model_temperature(binaries, tmp_path):
     run_sma("sim", "--volt", "const:1.0", "--duration", "60", "--out", log)
     rep = tmp_path / "rep.csv"
     run_sma("sim", "--replay", log, "--out", rep)
-    from sma_tools.plot import load_csv
+    from sma.plot import load_csv
 
     d, _ = load_csv(str(rep))
     # eq 1 steady state at 1.0 V with Table II: 49.56 degC (model.md)

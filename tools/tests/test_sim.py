@@ -3,7 +3,7 @@ and noise reach the log, and the log is a rig log with a metadata header."""
 import numpy as np
 
 from conftest import run_sma
-from sma_tools.plot import load_csv
+from sma.plot import load_csv
 
 
 def test_training_signal_shape(binaries, tmp_path):

@@ -7,7 +7,7 @@ import types
 
 import pytest
 
-from sma_tools import build, console, upload
+from sma import build, console, upload
 
 
 def bits(x):

@@ -54,6 +54,9 @@ import sys
 
 from pty_board import PtyBoard
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "py"))
+from sma import riglog  # noqa: E402
+
 
 def run_vrig(args, name, script_lines, duration, extra=(), native=False):
     d = os.path.join(args.out, name)
@@ -85,15 +88,8 @@ def run_vrig(args, name, script_lines, duration, extra=(), native=False):
 
 
 def read_log(path):
-    rows = []
-    with open(path) as f:
-        for ln in f:
-            if ln.startswith("#") or ln.startswith("t_s"):
-                continue
-            p = ln.strip().split(",")
-            if len(p) == 5:
-                rows.append(tuple(float(x) for x in p))
-    return rows
+    """The telemetry rows (t_s, v_V, d_mm, ref_mm, duty) by the package's one reader (sma.riglog)."""
+    return riglog.read(path).rows()
 
 
 def replies(lines):

@@ -21,6 +21,8 @@ import sys
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.join(ROOT, "tools", "py"))
+from sma import riglog  # noqa: E402
 TESTS = (("steps", "step", 150.0), ("sine", "sine", 150.0))
 MODES = (("pid", "PID alone"), ("ffpid", "inverse model + PID"))
 
@@ -53,13 +55,8 @@ def run_vrig(vrig, elf, mode, command, duration, log, noise, cycles, gains):
 
 
 def read_log(path):
-    """A rig log as {column: numpy array}; '#' lines are comments."""
-    import numpy as np
-    with open(path) as f:
-        lines = [ln.strip() for ln in f if ln.strip() and not ln.startswith("#")]
-    names = lines[0].split(",")
-    rows = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
-    return {n: rows[:, i] for i, n in enumerate(names)}
+    """A rig log as {column: numpy array}, by the package's one reader (sma.riglog)."""
+    return riglog.read(path).columns
 
 
 def metrics(tool, log, test, start):

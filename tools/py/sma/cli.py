@@ -1,8 +1,8 @@
-"""`tools/sma`: one entry point for the host tools.
+"""`sma` (pip install ./tools) or `tools/sma`: one entry point for the host tools.
 
   sma build                      build the C++ helpers (done automatically on first use)
   sma sim ...                    simulated rig -> rig log (sma_sim; `sma sim --help`)
-  sma fit LOG.csv --out DIR      identification (sma_fit) + plots like the paper's Fig. 5-6
+  sma fit LOG.csv --out DIR      identification (sma_fit; its options pass through) + plots like Fig. 5-6
   sma plot LOG.csv --out DIR     any rig log to PNG, with the model's temperature
   sma discrepancy LOG.csv --out DIR   missing effects of the model (sma_discrepancy)
   sma console --port PORT        the board's serial console: commands, status, recording
@@ -53,48 +53,73 @@ def cmd_sim(args, rest):
 
 
 def cmd_discrepancy(rest):
-    return subprocess.call([_tool("sma_discrepancy")] + rest)
+    if "-h" in rest or "--help" in rest:
+        return subprocess.call([_tool("sma_discrepancy")] + rest)
+    from . import progress
+
+    return progress.run_helper([_tool("sma_discrepancy")] + rest, "sma discrepancy")
 
 
-def cmd_fit(args):
-    cmd = [_tool("sma_fit"), args.log, "--out", args.out]
-    if args.params:
-        cmd += ["--params", args.params]
-    if args.validate:
-        cmd += ["--validate", args.validate]
-    for opt in ("fit", "fix", "max_points", "max_evals", "eps0", "max_bad"):
-        v = getattr(args, opt)
-        if v is not None:
-            cmd += ["--" + opt.replace("_", "-"), str(v)]
-    rc = subprocess.call(cmd)
+def _own_options(prog, argv, own):
+    """Splits argv into this command's own options (parsed) and the rest, passed verbatim to the
+    C++ helper: its options are declared once, in the helper."""
+    p = argparse.ArgumentParser(prog=prog, add_help=False, allow_abbrev=False)
+    for args, kw in own:
+        p.add_argument(*args, **kw)
+    return p.parse_known_args(argv)
+
+
+FIT_OWN = ((("--out",), {}), (("--no-plots",), {"action": "store_true"}))
+
+
+def cmd_fit(argv):
+    """sma fit LOG.csv [--params START.json] --out DIR [sma_fit options] [--no-plots]"""
+    own, rest = _own_options("sma fit", argv, FIT_OWN)
+    if not argv or "-h" in rest or "--help" in rest:
+        subprocess.call([_tool("sma_fit"), "--help"])
+        print("\nsma fit adds: --no-plots  skip the PNGs (training_time.png, fit_fraction.png "
+              "like Fig. 5, fit_displacement.png like Fig. 6)")
+        return 0
+    cmd = [_tool("sma_fit")] + rest + (["--out", own.out] if own.out else [])
+    from . import progress
+
+    rc = progress.run_helper(cmd, "sma fit")
     if rc != 0:
         return rc
-    if not args.no_plots:
+    if own.out and not own.no_plots:
         from . import plot
 
-        for p in plot.plot_fit(args.out):
+        for p in plot.plot_fit(own.out):
             print("  plot " + p)
     return 0
 
 
-def cmd_plot(args):
-    os.makedirs(args.out, exist_ok=True)
+PLOT_OWN = ((("log",), {"nargs": "?"}), (("--out",), {}))
+PLOT_HELP = """usage: sma plot LOG.csv --out DIR [sma_sim replay options: --params P.json, --eps0 X, --tare, ...]
+
+Plots a rig log (PNG): position, reference, error, voltage, displacement vs the model's
+temperature. The model's run comes from `sma_sim --replay LOG` (its options pass through).
+"""
+
+
+def cmd_plot(argv):
+    own, rest = _own_options("sma plot", argv, PLOT_OWN)
+    if not argv or "-h" in rest or "--help" in rest:
+        print(PLOT_HELP)
+        return 0 if argv else 2
+    if not own.log or not own.out:
+        sys.stderr.write("sma plot: needs LOG.csv and --out DIR\n" + PLOT_HELP)
+        return 2
+    os.makedirs(own.out, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         replay = os.path.join(tmp, "replay.csv")
-        cmd = [_tool("sma_sim"), "--replay", args.log, "--out", replay]
-        if args.params:
-            cmd += ["--params", args.params]
-        if args.eps0 is not None:
-            cmd += ["--eps0", str(args.eps0)]
-        if args.tare:
-            cmd += ["--tare"]
-        rc = subprocess.call(cmd)
+        rc = subprocess.call([_tool("sma_sim"), "--replay", own.log, "--out", replay] + rest)
         if rc != 0:
             return rc
         from . import plot
 
-        title = os.path.basename(args.log)
-        for p in plot.plot_log(replay, args.out, title):
+        title = os.path.basename(own.log)
+        for p in plot.plot_log(replay, own.out, title):
             print("  plot " + p)
     return 0
 
@@ -119,30 +144,11 @@ def make_parser():
                    help="find, name and fit the effects the model misses in a log "
                         "(LOG.csv [--params P.json] --out DIR; all options: sma discrepancy --help)")
 
-    f = sub.add_parser("fit", help="identify the model from a training log (paper III.B)",
-                       description="Fits T_AS, T_AF, T_MF, q, e, T_MSs, T_MSf, the loops' j and T_ii, "
-                                   "h, g and the sensor offset to a training log with Levenberg-Marquardt; "
-                                   "writes DIR/params.json, fit.json, report.md and PNG plots.")
-    f.add_argument("log", help="training rig log (t_s,v_V,d_mm,...)")
-    f.add_argument("--out", required=True, help="output directory")
-    f.add_argument("--params", help="start values / fixed parameters (JSON); default: the paper's")
-    f.add_argument("--validate", help="a second log, not used for the fit")
-    f.add_argument("--fit", help="comma list of parameters to fit (see sma_fit --help)")
-    f.add_argument("--fix", help="comma list of parameters to keep at their start value")
-    f.add_argument("--max-points", type=int, help="residual samples used (default 6000)")
-    f.add_argument("--max-evals", type=int, help="budget of model runs (default 400)")
-    f.add_argument("--eps0", type=float, help="austenite fraction at the start of the log")
-    f.add_argument("--max-bad", type=float, help="refuse a log with more than this fraction of bad rows")
-    f.add_argument("--no-plots", action="store_true", help="skip the PNGs")
-
-    pl = sub.add_parser("plot", help="plot a rig log (PNG): position, reference, error, voltage, "
-                                     "displacement vs the model's temperature")
-    pl.add_argument("log", help="rig log CSV")
-    pl.add_argument("--out", required=True, help="output directory")
-    pl.add_argument("--params", help="model for the temperature (JSON); default: the paper's")
-    pl.add_argument("--eps0", type=float, help="austenite fraction at the start of the log")
-    pl.add_argument("--tare", action="store_true",
-                    help="match the model's sensor zero to the log's first samples")
+    sub.add_parser("fit", add_help=False,
+                   help="identify the model from training log(s) (paper III.B; LOG.csv [--params START.json] "
+                        "--out DIR; all options: sma fit --help)")
+    sub.add_parser("plot", add_help=False,
+                   help="plot a rig log (PNG) with the model's temperature (LOG.csv --out DIR [--params P.json])")
 
     c = sub.add_parser("console", help="serial console of the board: commands, live status, recording",
                        description="Connects to the board (or a pseudo-terminal, or a pyserial URL such "
@@ -180,6 +186,9 @@ def make_parser():
     return p
 
 
+PASS_THROUGH = {"fit": cmd_fit, "plot": cmd_plot}
+
+
 def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     p = make_parser()
@@ -187,9 +196,11 @@ def main(argv=None):
         return cmd_sim(None, argv[1:] or ["--help"])
     if argv and argv[0] == "discrepancy":
         return cmd_discrepancy(argv[1:] or ["--help"])
+    if argv and argv[0] in PASS_THROUGH:
+        return PASS_THROUGH[argv[0]](argv[1:])
     args = p.parse_args(argv)
     if args.command is None:
         p.print_help()
         return 2
-    return {"build": cmd_build, "fit": cmd_fit, "plot": cmd_plot, "console": cmd_console,
+    return {"build": cmd_build, "console": cmd_console,
             "upload": cmd_upload}[args.command](args)

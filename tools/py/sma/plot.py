@@ -7,6 +7,8 @@ import os
 
 import numpy as np
 
+from . import riglog
+
 
 def _mpl():
     import matplotlib
@@ -18,24 +20,8 @@ def _mpl():
 
 
 def load_csv(path):
-    """Comments ('#'), header, numbers -> (dict name -> array, list of comment lines)."""
-    comments, header, rows = [], None, []
-    with open(path) as f:
-        for line in f:
-            s = line.strip()
-            if not s:
-                continue
-            if s.startswith("#"):
-                comments.append(s[1:].strip())
-                continue
-            if header is None:
-                header = [c.strip() for c in s.split(",")]
-                continue
-            rows.append([float(x) for x in s.split(",")])
-    if header is None:
-        raise ValueError("%s: no header" % path)
-    a = np.array(rows, dtype=float).reshape(-1, len(header))
-    return {name: a[:, i] for i, name in enumerate(header)}, comments
+    """(columns, comments) of a helper's CSV, by the one reader (riglog)."""
+    return riglog.load(path)
 
 
 def _decimate(n, limit=20000):

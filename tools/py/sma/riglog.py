@@ -1,0 +1,106 @@
+"""The Python side's one reader of rig logs (interfaces.md) and of the helpers' CSV outputs.
+
+Format: lines starting with '#' are comments, then a header line of column names, then one row
+of numbers per sample. The C++ reader (tools/host/include/sma_tools/rig_log.hpp, fuzzed) is the
+one the identification uses; this one serves plots, the virtual-rig scripts and the dashboard,
+and is as strict: a bad row (wrong field count, text in a number, NaN, time going back) is an
+error naming the file and line, or, with skip_bad=True, dropped and listed in `dropped`.
+"""
+import math
+
+REQUIRED = ("t_s", "v_V", "d_mm")
+
+
+class RigLogError(ValueError):
+    pass
+
+
+class RigLog:
+    """columns: name -> numpy array; comments: text of the '#' lines; dropped: [(line, why)]."""
+
+    def __init__(self, path, columns, comments, dropped):
+        self.path = path
+        self.columns = columns
+        self.comments = comments
+        self.dropped = dropped
+
+    def __getitem__(self, name):
+        try:
+            return self.columns[name]
+        except KeyError:
+            raise RigLogError("%s: no column '%s' (has %s)" % (self.path, name, ", ".join(self.columns)))
+
+    def __contains__(self, name):
+        return name in self.columns
+
+    def __len__(self):
+        return len(next(iter(self.columns.values()))) if self.columns else 0
+
+    def rows(self):
+        """The samples as tuples in header order."""
+        cols = list(self.columns.values())
+        return [tuple(float(c[i]) for c in cols) for i in range(len(self))]
+
+
+def parse_row(text, ncols):
+    """-> tuple of finite floats, or raises ValueError saying why."""
+    parts = text.split(",")
+    if len(parts) != ncols:
+        raise ValueError("%d fields, the header has %d" % (len(parts), ncols))
+    vals = []
+    for p in parts:
+        try:
+            v = float(p)
+        except ValueError:
+            raise ValueError("'%s' is not a number" % p.strip())
+        if not math.isfinite(v):
+            raise ValueError("'%s' is not finite" % p.strip())
+        vals.append(v)
+    return tuple(vals)
+
+
+def read(path, required=REQUIRED, skip_bad=False):
+    """Reads a CSV; `required` columns must be present (pass () for the helpers' CSVs)."""
+    import numpy as np
+
+    comments, header, rows, dropped = [], None, [], []
+    last_t = None
+    t_index = None
+    with open(path) as f:
+        for lineno, line in enumerate(f, 1):
+            s = line.strip()
+            if not s:
+                continue
+            if s.startswith("#"):
+                comments.append(s[1:].strip())
+                continue
+            if header is None:
+                header = [c.strip() for c in s.split(",")]
+                missing = [c for c in required if c not in header]
+                if missing:
+                    raise RigLogError("%s:%d: header lacks the column(s) %s (header: %s)"
+                                      % (path, lineno, ", ".join(missing), s))
+                t_index = header.index("t_s") if "t_s" in header else None
+                continue
+            try:
+                vals = parse_row(s, len(header))
+                if t_index is not None:
+                    if last_t is not None and not vals[t_index] > last_t:
+                        raise ValueError("time %g after %g: must increase" % (vals[t_index], last_t))
+                    last_t = vals[t_index]
+            except ValueError as e:
+                if not skip_bad:
+                    raise RigLogError("%s:%d: %s" % (path, lineno, e))
+                dropped.append((lineno, str(e)))
+                continue
+            rows.append(vals)
+    if header is None:
+        raise RigLogError("%s: no header line (expected e.g. t_s,v_V,d_mm)" % path)
+    a = np.array(rows, dtype=float).reshape(-1, len(header))
+    return RigLog(path, {name: a[:, i] for i, name in enumerate(header)}, comments, dropped)
+
+
+def load(path):
+    """(columns, comments) of a helper's CSV (no required columns, strict)."""
+    log = read(path, required=())
+    return log.columns, log.comments
