@@ -37,6 +37,7 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from paper_tests import read_log  # noqa: E402  (a rig log as {column: numpy array})
+from sma import progress  # noqa: E402  (on sys.path through paper_tests)
 from pty_board import PtyBoard  # noqa: E402
 SMA = os.path.join(ROOT, "tools", "sma")
 # The user's wire: transformation 4 K higher (T_AS, T_AF), 15 % more convection (h), 5 % more
@@ -62,10 +63,11 @@ def log(msg):
     print(msg, file=sys.stderr, flush=True)
 
 
-def run(cmd, what, **kw):
-    r = subprocess.run(cmd, capture_output=True, text=True, **kw)
+def run(cmd, what, live=False, **kw):
+    """Runs a step; live: its stderr (progress bars, messages) goes straight to ours."""
+    r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=None if live else subprocess.PIPE, text=True, **kw)
     if r.returncode != 0:
-        sys.exit(f"{what} failed (exit {r.returncode}): {' '.join(cmd)}\n{r.stdout[-1500:]}{r.stderr[-3000:]}")
+        sys.exit(f"{what} failed (exit {r.returncode}): {' '.join(cmd)}\n{r.stdout[-1500:]}{(r.stderr or '')[-3000:]}")
     return r
 
 
@@ -137,17 +139,17 @@ def main():
         # with more heat loss, reaches ~88 degC); the default 110 degC limit would end the run.
         run([sys.executable, SMA, "console", "--port", board.port, "--send", "tele on", "--send", "tlim 140",
              "--send", f"train {a.slope:g}", "--record", train, "--until", "train done", "--duration",
-             f"{(dur + 120) / min(a.speed, 2.0):.0f}", "--status", "30", "--timeout", "5", "-q"],
-            "tools/sma console (training run)", env=env)
+             f"{(dur + 120) / min(a.speed, 2.0):.0f}", "--progress", f"{dur:.0f}", "--timeout", "5", "-q"],
+            "tools/sma console (training run)", live=True, env=env)
 
     # 2. fit, 3. discrepancy
     log("2/5 tools/sma fit train.csv ...")
     fit = os.path.join(a.out, "fit")
-    run([SMA, "fit", train, "--out", fit], "tools/sma fit", env=env)
+    run([SMA, "fit", train, "--out", fit], "tools/sma fit", live=True, env=env)
     log("3/5 tools/sma discrepancy train.csv --params fit/params.json --refit-base all ...")
     disc = os.path.join(a.out, "disc")
     run([SMA, "discrepancy", train, "--params", os.path.join(fit, "params.json"), "--refit-base", "all",
-         "--out", disc], "tools/sma discrepancy", env=env)
+         "--out", disc], "tools/sma discrepancy", live=True, env=env)
     with open(os.path.join(disc, "report.json")) as f:
         report = json.load(f)
     added = [e["name"] for e in report["effects"]]
@@ -172,6 +174,10 @@ def main():
     results = {}
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as pool:
         futs = {(m, t): pool.submit(paper_test, a, m, eeprom[m], t, c, d) for m, _ in MODELS for t, c, d in TESTS}
+        with progress.Progress("5/5 paper's tests", total=len(futs)) as bar:
+            for fu in concurrent.futures.as_completed(futs.values()):
+                fu.result()
+                bar.update(bar.done + 1)
         for k, fu in futs.items():
             results[k] = fu.result()
 

@@ -14,6 +14,7 @@ benchmark; without that file, the firmware's defaults (tuned on the sine).
 Writes OUT/{steps,sine}_{pid,ffpid}.csv, OUT/paper_tests.json, OUT/fig09..fig13.png.
 """
 import argparse
+import concurrent.futures
 import json
 import os
 import subprocess
@@ -22,7 +23,7 @@ import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "tools", "py"))
-from sma import riglog  # noqa: E402
+from sma import progress, riglog  # noqa: E402
 TESTS = (("steps", "step", 150.0), ("sine", "sine", 150.0))
 MODES = (("pid", "PID alone"), ("ffpid", "inverse model + PID"))
 
@@ -73,6 +74,7 @@ def main():
     ap.add_argument("--out", default=None)
     ap.add_argument("--elf", default=None, help="firmware ELF (default: BUILD/firmware/sma_firmware.elf)")
     ap.add_argument("--noise-mm", type=float, default=0.002)
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 2, help="runs at a time (default: cores)")
     ap.add_argument("--gains-from", default=None,
                     help="bench_tracking JSON (default: BUILD/bench-results/tracking.json if present)")
     a = ap.parse_args()
@@ -87,25 +89,34 @@ def main():
 
     gains_file = a.gains_from or os.path.join(a.build, "bench-results", "tracking.json")
     results = {}
-    n = 0
-    for test, command, duration in TESTS:
-        for mode, _ in MODES:
-            n += 1
-            log = os.path.join(out, f"{test}_{mode}.csv")
-            print(f"[{n}/4] firmware in the virtual rig: {test}, {mode} ({duration:.0f} s simulated) ...",
-                  file=sys.stderr, flush=True)
-            t0 = time.time()
-            cyc = os.path.join(out, f"{test}_{mode}_cycles.json")
-            gains = tuned_gains(gains_file, test, mode)
-            run_vrig(vrig, elf, mode, command, duration, log, a.noise_mm, cyc, gains)
-            d = read_log(log)
-            start = float(d["t_s"][d["ref_mm"] > 0][0])  # the reference starts with the command
-            m = metrics(tool, log, test, start)
-            with open(cyc) as f:
-                m["cycles"] = json.load(f)
-            m["wall_s"] = round(time.time() - t0, 1)
-            m["gains"] = gains or "firmware defaults"
-            results[f"{test}_{mode}"] = m
+    runs = [(test, command, duration, mode) for test, command, duration in TESTS for mode, _ in MODES]
+
+    def one(test, command, duration, mode):
+        log = os.path.join(out, f"{test}_{mode}.csv")
+        t0 = time.time()
+        cyc = os.path.join(out, f"{test}_{mode}_cycles.json")
+        gains = tuned_gains(gains_file, test, mode)
+        run_vrig(vrig, elf, mode, command, duration, log, a.noise_mm, cyc, gains)
+        d = read_log(log)
+        start = float(d["t_s"][d["ref_mm"] > 0][0])  # the reference starts with the command
+        m = metrics(tool, log, test, start)
+        with open(cyc) as f:
+            m["cycles"] = json.load(f)
+        m["wall_s"] = round(time.time() - t0, 1)
+        m["gains"] = gains or "firmware defaults"
+        return m
+
+    print(f"firmware in the virtual rig: {len(runs)} runs of 150 s simulated (steps and sine x PID alone and "
+          f"inverse model + PID), {a.jobs} at a time; gains: "
+          f"{gains_file if os.path.isfile(gains_file) else 'the firmware defaults (no ' + gains_file + ')'}",
+          file=sys.stderr, flush=True)
+    with progress.Progress("paper tests", total=len(runs)) as bar, \
+            concurrent.futures.ThreadPoolExecutor(a.jobs) as pool:
+        futs = {pool.submit(one, *r): r for r in runs}
+        for fu in concurrent.futures.as_completed(futs):
+            test, _, _, mode = futs[fu]
+            results[f"{test}_{mode}"] = fu.result()
+            bar.update(len(results), text=f"{test} {mode} done")
 
     print("\nThe firmware (ATmega328P ELF, float) in the virtual rig, 2 um sensor noise, errors on the "
           "measured position:\n")

@@ -7,6 +7,7 @@
   sma discrepancy LOG.csv --out DIR   missing effects of the model (sma_discrepancy)
   sma console --port PORT        the board's serial console: commands, status, recording
   sma upload PARAMS.json --port PORT   model parameters into the board's EEPROM, verified
+  sma dashboard --port PORT      the rig live in the browser (or --vrig: the firmware in the virtual rig)
 """
 import argparse
 import os
@@ -124,6 +125,12 @@ def cmd_plot(argv):
     return 0
 
 
+def cmd_dashboard(args):
+    from . import dashboard
+
+    return dashboard.run(args)
+
+
 def cmd_console(args):
     from . import console
 
@@ -168,6 +175,9 @@ def make_parser():
     c.add_argument("--status", type=float, default=1.0, metavar="S",
                    help="status line period (s), 0 = none (default 1)")
     c.add_argument("--timeout", type=float, default=2.0, help="reply timeout (s)")
+    c.add_argument("--progress", type=float, metavar="S",
+                   help="the run takes S seconds of board time (e.g. a training run): show a bar with "
+                        "the time left (a terminal) or a line every 10 s (a log) instead of status lines")
     c.add_argument("--no-stop", action="store_true", help="do not send stop on a normal exit")
     c.add_argument("-q", "--quiet", action="store_true", help="do not echo replies")
 
@@ -183,6 +193,10 @@ def make_parser():
     u.add_argument("--baud", type=int, default=115200)
     u.add_argument("--timeout", type=float, default=2.0, help="reply timeout (s) of pget/pinfo")
     u.add_argument("--stop", action="store_true", help="send stop first (heater off)")
+
+    from . import dashboard
+
+    dashboard.add_parser(sub)
     return p
 
 
@@ -202,5 +216,5 @@ def main(argv=None):
     if args.command is None:
         p.print_help()
         return 2
-    return {"build": cmd_build, "console": cmd_console,
+    return {"build": cmd_build, "console": cmd_console, "dashboard": cmd_dashboard,
             "upload": cmd_upload}[args.command](args)

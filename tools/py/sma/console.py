@@ -184,15 +184,21 @@ class ConsoleClient:
             r[0], r[2], r[3], r[3] - r[2], r[1], r[4])
 
 
-def open_port(url, baud, prog, err):
+def open_port(url, baud, prog, err, exclusive=True):
     """The serial port (a device, a pseudo-terminal or a pyserial URL such as loop://), or None
-    after a message naming it; shared by `sma console` and `sma upload`."""
+    after a message naming it; shared by `sma console`, `upload` and `dashboard`. A device is
+    opened exclusively (flock): two of these tools never talk to one board at once."""
     import serial
 
+    kw = {"exclusive": True} if exclusive and "://" not in url else {}
     try:
-        return serial.serial_for_url(url, baudrate=baud, timeout=0.05)
+        return serial.serial_for_url(url, baudrate=baud, timeout=0.05, **kw)
     except (serial.SerialException, ValueError) as e:
-        err.write("%s: cannot open %s: %s\n" % (prog, url, e))
+        if "exclusively lock" in str(e):
+            err.write("%s: cannot open %s: in use by another program (an sma dashboard? press "
+                      "'Release port' on its page, or end it)\n" % (prog, url))
+        else:
+            err.write("%s: cannot open %s: %s\n" % (prog, url, e))
         return None
 
 
@@ -226,6 +232,7 @@ def run(args, port=None, stdin=None, out=sys.stdout, err=sys.stderr):
 
         threading.Thread(target=reader, daemon=True).start()
     code = 0
+    bar = None
     try:
         for cmd in args.send or []:
             try:
@@ -236,6 +243,11 @@ def run(args, port=None, stdin=None, out=sys.stdout, err=sys.stderr):
                 break
         start = time.monotonic()
         last_status = 0.0
+        t_first = None
+        if getattr(args, "progress", None):
+            from . import progress
+
+            bar = progress.Progress("board time s", total=args.progress, stream=err)
         while code == 0:
             now = time.monotonic()
             if c.until_seen:
@@ -257,7 +269,11 @@ def run(args, port=None, stdin=None, out=sys.stdout, err=sys.stderr):
                 if line.strip():
                     c.write_line(line)
             c.poll()
-            if args.status and c.last_row is not None and now - last_status >= args.status:
+            if bar is not None and c.last_row is not None:
+                if t_first is None:
+                    t_first = c.last_row[0]
+                bar.update(round(c.last_row[0] - t_first, 1), text="d=%.4f mm V=%.3f" % (c.last_row[2], c.last_row[1]))
+            elif args.status and c.last_row is not None and now - last_status >= args.status:
                 err.write("\r" + c.status_line())
                 err.flush()
                 last_status = now
@@ -271,6 +287,8 @@ def run(args, port=None, stdin=None, out=sys.stdout, err=sys.stderr):
         err.write("\nsma console: %s: is this the board's port, at %d baud?\n" % (e, args.baud))
         code = 4
     finally:
+        if bar is not None:
+            bar.finish()
         if not args.no_stop or code != 0:
             reply = c.stop()
             if reply is not None and not args.quiet:
