@@ -51,7 +51,10 @@ def test_installed_sma_is_the_package_not_the_source_tree(venv_sma, tmp_path):
                         "import sma, os; print(os.path.dirname(sma.__file__))"],
                        capture_output=True, text=True, cwd=str(tmp_path), env=env)
     assert r.returncode == 0, r.stderr
-    assert not r.stdout.strip().startswith(ROOT), r.stdout
+    pkg = r.stdout.strip()
+    assert not pkg.startswith(ROOT), pkg
+    for page in ("index.html", "app.js", "style.css"):  # the dashboard's page, served locally
+        assert os.path.isfile(os.path.join(pkg, "web", page)), page
 
 
 def test_installed_sma_outside_a_clone_says_where_the_helpers_come_from(venv_sma, tmp_path):
