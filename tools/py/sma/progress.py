@@ -35,6 +35,7 @@ class Progress:
         self.text = ""
         self._last_print = None
         self._drawn = False
+        self._printed = None
 
     def eta(self):
         """Seconds left by a straight line through the progress so far, or None."""
@@ -76,7 +77,8 @@ class Progress:
                 self._drawn = True
                 self._last_print = now
         elif self._last_print is None or now - self._last_print >= self.every:
-            self.stream.write(self.line() + "\n")
+            self._printed = self.line()
+            self.stream.write(self._printed + "\n")
             self.stream.flush()
             self._last_print = now
 
@@ -86,14 +88,15 @@ class Progress:
             self.stream.write("\r\x1b[K")
         self.stream.write(text.rstrip("\n") + "\n")
         self._drawn = False
+        self._printed = None
         self._last_print = None if self.tty else self._last_print
         self.stream.flush()
 
     def finish(self):
         if self.tty:
             self.stream.write("\r\x1b[K" + self.line() + "\n")
-        else:
-            self.stream.write(self.line() + " done\n")
+        elif self.line() != self._printed:
+            self.stream.write(self.line() + "\n")
         self.stream.flush()
 
     def __enter__(self):
