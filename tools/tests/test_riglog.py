@@ -32,3 +32,11 @@ def test_bad_rows_are_named_by_line_or_dropped_and_listed(tmp_path, row, why):
 def test_missing_required_column_is_named(tmp_path):
     with pytest.raises(riglog.RigLogError, match="lacks the column.*d_mm"):
         riglog.read(write(tmp_path, "t_s,v_V\n0,0\n"))
+
+
+def test_a_file_without_header_is_refused_unless_empty_is_allowed(tmp_path):
+    path = write(tmp_path, "# only a comment\n")
+    with pytest.raises(riglog.RigLogError, match="no header"):
+        riglog.read(path)
+    log = riglog.read(path, empty_ok=True)
+    assert len(log) == 0 and log.rows() == [] and log.comments == ["only a comment"]

@@ -88,8 +88,9 @@ def run_vrig(args, name, script_lines, duration, extra=(), native=False):
 
 
 def read_log(path):
-    """The telemetry rows (t_s, v_V, d_mm, ref_mm, duty) by the package's one reader (sma.riglog)."""
-    return riglog.read(path).rows()
+    """The telemetry rows (t_s, v_V, d_mm, ref_mm, duty) by the package's one reader (sma.riglog);
+    none when the run sent no telemetry."""
+    return riglog.read(path, empty_ok=True).rows()
 
 
 def replies(lines):

@@ -59,8 +59,9 @@ def parse_row(text, ncols):
     return tuple(vals)
 
 
-def read(path, required=REQUIRED, skip_bad=False):
-    """Reads a CSV; `required` columns must be present (pass () for the helpers' CSVs)."""
+def read(path, required=REQUIRED, skip_bad=False, empty_ok=False):
+    """Reads a CSV; `required` columns must be present (pass () for the helpers' CSVs).
+    empty_ok: a file without a header (a run that never sent telemetry) is a log of no rows."""
     import numpy as np
 
     comments, header, rows, dropped = [], None, [], []
@@ -95,6 +96,8 @@ def read(path, required=REQUIRED, skip_bad=False):
                 continue
             rows.append(vals)
     if header is None:
+        if empty_ok:
+            return RigLog(path, {}, comments, dropped)
         raise RigLogError("%s: no header line (expected e.g. t_s,v_V,d_mm)" % path)
     a = np.array(rows, dtype=float).reshape(-1, len(header))
     return RigLog(path, {name: a[:, i] for i, name in enumerate(header)}, comments, dropped)
