@@ -80,7 +80,7 @@ def cmd_fit(argv):
         subprocess.call([_tool("sma_fit"), "--help"])
         print("\nsma fit adds: --no-plots  skip the PNGs (training_time.png, fit_fraction.png "
               "like Fig. 5, fit_displacement.png like Fig. 6)")
-        return 0
+        return 0 if argv else 2
     cmd = [_tool("sma_fit")] + rest + (["--out", own.out] if own.out else [])
     from . import progress
 
