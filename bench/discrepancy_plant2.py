@@ -75,6 +75,9 @@ def run_one(case, logs, outs, noise, extra):
         right = not named
     n = noise(case)
     e0, e1 = excess(rep["rms_mm_nominal"], n), excess(rep["rms_mm_final"], n)
+    # the effects the engine tried on this log: a hidden effect outside them cannot be named
+    tried = {c["name"] for rnd in rep.get("candidates", []) for c in rnd} | set(named)
+    res["unknown_to_engine"] = sorted(hidden - tried) if tried else []
     res.update({"named": named,
                 "named_params": {e["name"]: e.get("params", {}) for e in rep.get("effects", [])},
                 "right": right, "rms_mm_nominal": rep["rms_mm_nominal"], "rms_mm_final": rep["rms_mm_final"],
@@ -173,14 +176,22 @@ def main():
         per_ex[ex] = {"right": sum(r["right"] for r in rs), "logs": len(rs)}
     print("\nby excitation: " + ", ".join("%s %d/%d" % (k, v["right"], v["logs"]) for k, v in per_ex.items()))
 
+    known = [r for r in with_fx if not r.get("unknown_to_engine")]
+    unknown = sorted({u for r in with_fx for u in r.get("unknown_to_engine", [])})
+    right_known = sum(r["right"] for r in known)
     frac = right / len(with_fx) if with_fx else float("nan")
     print("\nRight effects named: %d of %d logs with hidden effects (%.0f %%, target >= %.0f %%)" % (
         right, len(with_fx), 100 * frac, 100 * TARGET_RIGHT))
+    if unknown:
+        print("  of them on logs whose effects are all in the engine's vocabulary: %d of %d (%.0f %%); "
+              "not in its vocabulary: %s" % (right_known, len(known), 100.0 * right_known / max(len(known), 1),
+                                             ", ".join(unknown)))
     print("Clean logs with nothing named: %d of %d (target: all)" % (clean_ok, len(clean)))
     print("Median excess-gap shrink: %.0f %% (target >= %.0f %%); wall time %.0f s" % (
         100 * median, 100 * TARGET_SHRINK, time.time() - t_start))
     summary = {"plant": "plant_b", "quick": a.quick, "logs": len(results),
                "logs_with_effects": len(with_fx), "named_right": right, "named_right_fraction": frac,
+               "unknown_to_engine": unknown, "logs_with_known_effects": len(known), "named_right_known": right_known,
                "clean_logs": len(clean), "clean_nothing_named": clean_ok,
                "median_excess_gap_shrink": median, "min_excess_gap_shrink": min(shrinks) if shrinks else None,
                "targets": {"named_right_fraction": TARGET_RIGHT, "median_excess_gap_shrink": TARGET_SHRINK},
