@@ -94,7 +94,7 @@ def main():
     ap.add_argument("--quick", action="store_true", help="12 logs: each effect strong once, 2 clean, 2 pairs")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--build", default="build")
-    ap.add_argument("--only", help="only the logs whose name contains this")
+    ap.add_argument("--only", help="only the logs whose name contains this (comma list: any of them)")
     ap.add_argument("--plots", action="store_true", help="let the workflow draw its plots (slower)")
     ap.add_argument("--json", help="default: BUILD/bench-results/discrepancy_plant2.json")
     a = ap.parse_args()
@@ -198,6 +198,17 @@ def main():
                "lookalikes": {k: sorted(v) for k, v in LOOKALIKES.items()},
                "per_effect": per_effect, "per_excitation": per_ex,
                "wall_s": round(time.time() - t_start, 1), "results": results}
+    # the own plant's benchmark (bench_discrepancy, run before this one by scripts/bench)
+    own_path = os.path.join(res_dir, "discrepancy.json")
+    if os.path.exists(own_path):
+        own = json.load(open(own_path))
+        own_shrinks = [c["excess_gap_shrink"] for c in own["cases"] if c["hidden"] != "none"]
+        summary["own_plant"] = {"named_right": own["named_right"], "logs_with_effects": own["logs_with_effects"],
+                                "median_excess_gap_shrink": statistics.median(own_shrinks)}
+        print("\n| plant | right effects named | median excess-gap shrink |\n|---|---|---|")
+        print("| own (lib/sma_model, bench_discrepancy) | %d / %d | %.0f %% |" % (
+            own["named_right"], own["logs_with_effects"], 100 * summary["own_plant"]["median_excess_gap_shrink"]))
+        print("| B (plant_b.hpp, this benchmark) | %d / %d | %.0f %% |" % (right, len(with_fx), 100 * median))
     path = a.json or os.path.join(res_dir, "discrepancy_plant2.json")
     with open(path, "w") as f:
         json.dump(summary, f, indent=1)

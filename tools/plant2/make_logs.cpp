@@ -3,10 +3,11 @@
 // discrepancy benchmark bench/discrepancy_plant2.py. Writes DIR/<case>.csv and DIR/cases.json
 // (what is hidden in each log; the logs themselves do not say).
 //
-//   plant2_make_logs --out DIR [--quick] [--only SUBSTRING] [--list]
+//   plant2_make_logs --out DIR [--quick] [--only SUBSTRING[,SUBSTRING...]] [--list]
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <algorithm>
 #include <string>
 #include <vector>
 #include "excitations.hpp"
@@ -169,7 +170,7 @@ void write_manifest(const std::vector<Case>& cs, const std::string& path) {
 }
 
 int usage() {
-  fprintf(stderr, "usage: plant2_make_logs --out DIR [--quick] [--only SUBSTRING] [--list]\n");
+  fprintf(stderr, "usage: plant2_make_logs --out DIR [--quick] [--only SUBSTRING[,SUBSTRING...]] [--list]\n");
   return 2;
 }
 
@@ -186,9 +187,19 @@ int main(int argc, char** argv) {
     else if (a == "--list") list = true;
     else return usage();
   }
+  // --only: comma-separated substrings, a case matching any of them is kept
+  std::vector<std::string> pats;
+  for (size_t a = 0; !only.empty() && a <= only.size();) {
+    const size_t b = std::min(only.find(',', a), only.size());
+    pats.push_back(only.substr(a, b - a));
+    a = b + 1;
+  }
   std::vector<Case> cs;
-  for (const Case& c : cases())
-    if ((!quick || c.quick) && (only.empty() || c.name.find(only) != std::string::npos)) cs.push_back(c);
+  for (const Case& c : cases()) {
+    bool match = pats.empty();
+    for (const std::string& p : pats) match = match || c.name.find(p) != std::string::npos;
+    if ((!quick || c.quick) && match) cs.push_back(c);
+  }
   if (list) {
     for (const Case& c : cs) printf("%s\n", c.name.c_str());
     return 0;
