@@ -95,15 +95,18 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--build", default="build")
     ap.add_argument("--only", help="only the logs whose name contains this (comma list: any of them)")
+    ap.add_argument("--reading", choices=("literal", "rpm"), default="literal",
+                    help="plant B's re-heat reading: literal (default, a new loop at every reversal) or rpm "
+                         "(return-point memory, the library's: isolates the effects from this base-model difference)")
     ap.add_argument("--plots", action="store_true", help="let the workflow draw its plots (slower)")
     ap.add_argument("--json", help="default: BUILD/bench-results/discrepancy_plant2.json")
     a = ap.parse_args()
 
     top = build(a.build)
     res_dir = os.path.join(top, "bench-results")
-    logs = os.path.join(res_dir, "plant2-logs")
-    outs = os.path.join(res_dir, "plant2-discrepancy")
-    gen = [os.path.join(top, "tools", "plant2", "plant2_make_logs"), "--out", logs]
+    logs = os.path.join(res_dir, "plant2-logs-" + a.reading)
+    outs = os.path.join(res_dir, "plant2-discrepancy-" + a.reading)
+    gen = [os.path.join(top, "tools", "plant2", "plant2_make_logs"), "--out", logs, "--reading", a.reading]
     if a.quick:
         gen.append("--quick")
     if a.only:
@@ -142,7 +145,8 @@ def main():
     shrinks = [r["excess_gap_shrink"] for r in with_fx]
     median = statistics.median(shrinks) if shrinks else float("nan")
 
-    print("## Discrepancy workflow on plant B (docs/plant2.md)%s\n" % (" --quick" if a.quick else ""))
+    print("## Discrepancy workflow on plant B (docs/plant2.md), re-heat reading %s%s\n" % (
+        a.reading, ", --quick" if a.quick else ""))
     print("| log | hidden | named (values) | RMS before mm | RMS after mm | excess-gap shrink | right | s |")
     print("|---|---|---|---|---|---|---|---|")
     for r in results:
@@ -189,7 +193,7 @@ def main():
     print("Clean logs with nothing named: %d of %d (target: all)" % (clean_ok, len(clean)))
     print("Median excess-gap shrink: %.0f %% (target >= %.0f %%); wall time %.0f s" % (
         100 * median, 100 * TARGET_SHRINK, time.time() - t_start))
-    summary = {"plant": "plant_b", "quick": a.quick, "logs": len(results),
+    summary = {"plant": "plant_b", "reading": a.reading, "quick": a.quick, "logs": len(results),
                "logs_with_effects": len(with_fx), "named_right": right, "named_right_fraction": frac,
                "unknown_to_engine": unknown, "logs_with_known_effects": len(known), "named_right_known": right_known,
                "clean_logs": len(clean), "clean_nothing_named": clean_ok,
@@ -209,7 +213,7 @@ def main():
         print("| own (lib/sma_model, bench_discrepancy) | %d / %d | %.0f %% |" % (
             own["named_right"], own["logs_with_effects"], 100 * summary["own_plant"]["median_excess_gap_shrink"]))
         print("| B (plant_b.hpp, this benchmark) | %d / %d | %.0f %% |" % (right, len(with_fx), 100 * median))
-    path = a.json or os.path.join(res_dir, "discrepancy_plant2.json")
+    path = a.json or os.path.join(res_dir, "discrepancy_plant2%s.json" % ("" if a.reading == "literal" else "_rpm"))
     with open(path, "w") as f:
         json.dump(summary, f, indent=1)
     print("wrote %s" % path)

@@ -178,15 +178,31 @@ TEST(PlantB, MinorLoopCheckValues) {
   }
 }
 
-TEST(PlantB, ReheatShortOfTransformationKeepsTheLoop) {
-  // This plant's reading (docs/plant2.md): a re-heat that transforms nothing leaves the loop
-  // it interrupted in place; cooling again rejoins that loop's branch.
+TEST(PlantB, ReheatShortOfTransformationOpensANewLoop) {
+  // Plant B's reading (docs/plant2.md): every reversal fixes a new cooling branch at its peak
+  // (eqs 7-10), also after a re-heat that transformed nothing.
   const Wire w;
   Transformation tr(w);
   walk(tr, 22.0, 68.5);
   walk(tr, 68.5, 45.0);
   EXPECT_NEAR(tr.fraction(), 0.8624, 1e-3);
   walk(tr, 45.0, 55.0);  // eps_h(55) = 0.06: below the wire's fraction, nothing transforms
+  EXPECT_NEAR(tr.fraction(), 0.8624, 1e-3);
+  walk(tr, 55.0, 30.0);
+  // the loop of T_i = 55: T_MSi clamped to 55 (model.md), no rise, eq 11 from 55 down to T_MF
+  EXPECT_NEAR(tr.branch().T_MSi, 55.0, 1e-9);
+  EXPECT_NEAR(tr.fraction(), 0.8624 * 0.5 * (1.0 - cos(M_PI * (30.0 - 22.0) / (55.0 - 22.0))), 1e-3);
+}
+
+TEST(PlantB, ReturnPointMemoryKeepsTheLoop) {
+  // The library's reading, selectable: a re-heat that transforms nothing leaves the loop it
+  // interrupted in place; cooling again rejoins that loop's branch.
+  Wire w;
+  w.return_point_memory = true;
+  Transformation tr(w);
+  walk(tr, 22.0, 68.5);
+  walk(tr, 68.5, 45.0);
+  walk(tr, 45.0, 55.0);
   EXPECT_NEAR(tr.fraction(), 0.8624, 1e-3);
   walk(tr, 55.0, 30.0);
   EXPECT_NEAR(tr.fraction(), 0.7945, 1e-3);  // the 68.5 loop's value at 30 degC

@@ -3,7 +3,10 @@
 // discrepancy benchmark bench/discrepancy_plant2.py. Writes DIR/<case>.csv and DIR/cases.json
 // (what is hidden in each log; the logs themselves do not say).
 //
-//   plant2_make_logs --out DIR [--quick] [--only SUBSTRING[,SUBSTRING...]] [--list]
+//   plant2_make_logs --out DIR [--quick] [--only SUBSTRING[,SUBSTRING...]] [--reading literal|rpm] [--list]
+// --reading: what a re-heat that transforms nothing does to the loop it interrupted (plant_b.hpp):
+// `literal` (default) opens a new loop at every reversal; `rpm` keeps it (return-point memory,
+// the library's reading), which isolates the effects from this difference of the base model.
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -112,8 +115,11 @@ double param(const Case& c, const char* effect, const char* key, double dflt) {
   return dflt;
 }
 
+bool g_return_point_memory = false;
+
 bool write_log(const Case& c, const std::string& path) {
-  const Wire wire;
+  Wire wire;
+  wire.return_point_memory = g_return_point_memory;
   WireEffects wf;
   wf.ambient_offset_K = param(c, "ambient_offset", "offset_K", 0.0);
   wf.G2_W_per_K2 = wire.conductance() * param(c, "convection_nonlinear", "beta_per_K", 0.0);
@@ -151,7 +157,8 @@ void write_manifest(const std::vector<Case>& cs, const std::string& path) {
     fprintf(stderr, "plant2_make_logs: cannot write %s\n", path.c_str());
     exit(1);
   }
-  fprintf(f, "{\n  \"noise_mm\": %.6f,\n  \"adc_mm\": %.8f,\n  \"cases\": [\n", kNoiseMm, kAdcMm);
+  fprintf(f, "{\n  \"noise_mm\": %.6f,\n  \"adc_mm\": %.8f,\n  \"reading\": \"%s\",\n  \"cases\": [\n", kNoiseMm,
+          kAdcMm, g_return_point_memory ? "rpm" : "literal");
   for (size_t i = 0; i < cs.size(); ++i) {
     const Case& c = cs[i];
     fprintf(f, "    {\"name\": \"%s\", \"file\": \"%s.csv\", \"excitation\": \"%s\", \"adc\": %s, \"quick\": %s, "
@@ -170,7 +177,7 @@ void write_manifest(const std::vector<Case>& cs, const std::string& path) {
 }
 
 int usage() {
-  fprintf(stderr, "usage: plant2_make_logs --out DIR [--quick] [--only SUBSTRING[,SUBSTRING...]] [--list]\n");
+  fprintf(stderr, "usage: plant2_make_logs --out DIR [--quick] [--only SUBSTRING[,SUBSTRING...]] [--reading literal|rpm] [--list]\n");
   return 2;
 }
 
@@ -183,7 +190,14 @@ int main(int argc, char** argv) {
     const std::string a = argv[i];
     if (a == "--out" && i + 1 < argc) out = argv[++i];
     else if (a == "--only" && i + 1 < argc) only = argv[++i];
-    else if (a == "--quick") quick = true;
+    else if (a == "--reading" && i + 1 < argc) {
+      const std::string r = argv[++i];
+      if (r != "literal" && r != "rpm") {
+        fprintf(stderr, "plant2_make_logs: --reading must be literal or rpm, not %s\n", r.c_str());
+        return 2;
+      }
+      g_return_point_memory = r == "rpm";
+    } else if (a == "--quick") quick = true;
     else if (a == "--list") list = true;
     else return usage();
   }

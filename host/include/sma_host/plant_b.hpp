@@ -8,7 +8,10 @@
 //   - convection loss G dT + G2 dT |dT| (quadratic in the temperature rise);
 //   - latent heat as a temperature drop per unit of transformed fraction, solved implicitly
 //     after each sensible-heat sub-step (operator splitting, not a term of the ODE);
-//   - a re-heat that stops short of transformation keeps the loop it interrupted;
+//   - every heating -> cooling reversal opens a new loop at its peak, also after a re-heat
+//     that transformed nothing (model.md's text read literally; the library keeps the
+//     interrupted loop instead: return-point memory). Wire::return_point_memory switches to
+//     the library's reading, for the tests;
 //   - sensor effects of plant_b_sensor.hpp (interpolated ring-buffer delay, bilinear lag).
 #ifndef SMA_HOST_PLANT_B_HPP
 #define SMA_HOST_PLANT_B_HPP
@@ -26,6 +29,9 @@ struct Wire {
   double m[6] = {1.0000, -4.8334, 10.2425, -8.6475, 0.0, 2.2385};  // m0..m5 of eq 8
   double q = -32.6936, e = 60.4657;
   double g_mm = 0.958;  // eq 12
+  // false: a new loop at every reversal; true: a re-heat that transformed nothing keeps the
+  // loop it interrupted (see Transformation::update).
+  bool return_point_memory = false;
   // The identified minor loops (model.md table): peak T_i, end of the rise T_ii, rise j.
   double knot_Ti[3] = {63.1, 68.5, 71.5};
   double knot_Tii[3] = {61.2, 59.1, 65.2};
@@ -119,10 +125,10 @@ class Transformation {
       if (T >= T_last_) {
         eps_ = fmax(eps_, heating_curve(T));  // eq 4; flat until it meets the curve
       } else {
-        // Heating -> cooling at T_i = T_last_. A re-heat that transformed nothing did not
-        // leave the interrupted loop: the wire keeps that loop's branch and rejoins it where
-        // the re-heat began (the other reading of model.md's "keeps eps").
-        if (eps_ > eps_heat_start_ + 1e-12) {
+        // Heating -> cooling at T_i = T_last_: a new loop (eqs 5-11) fixed by this peak. With
+        // return-point memory, a re-heat that transformed nothing keeps the interrupted loop's
+        // branch instead and rejoins it where the re-heat began.
+        if (!w_->return_point_memory || eps_ > eps_heat_start_ + 1e-12) {
           branch_ = branch_from(T_last_, eps_);
           rejoin_pending_ = false;
         }
