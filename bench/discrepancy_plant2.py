@@ -75,9 +75,8 @@ def run_one(case, logs, outs, noise, extra):
         right = not named
     n = noise(case)
     e0, e1 = excess(rep["rms_mm_nominal"], n), excess(rep["rms_mm_final"], n)
-    # the effects the engine tried on this log: a hidden effect outside them cannot be named
-    tried = {c["name"] for rnd in rep.get("candidates", []) for c in rnd} | set(named)
-    res["unknown_to_engine"] = sorted(hidden - tried) if tried else []
+    # the effects the engine tried on this log (its vocabulary, see main)
+    res["tried"] = sorted({c["name"] for rnd in rep.get("candidates", []) for c in rnd} | set(named))
     res.update({"named": named,
                 "named_params": {e["name"]: e.get("params", {}) for e in rep.get("effects", [])},
                 "right": right, "rms_mm_nominal": rep["rms_mm_nominal"], "rms_mm_final": rep["rms_mm_final"],
@@ -180,7 +179,12 @@ def main():
         per_ex[ex] = {"right": sum(r["right"] for r in rs), "logs": len(rs)}
     print("\nby excitation: " + ", ".join("%s %d/%d" % (k, v["right"], v["logs"]) for k, v in per_ex.items()))
 
-    known = [r for r in with_fx if not r.get("unknown_to_engine")]
+    # the engine's vocabulary: every effect it tried on some log; a hidden effect outside it
+    # cannot be named
+    vocab = {t for r in results for t in r.get("tried", [])}
+    for r in results:
+        r["unknown_to_engine"] = sorted(set(r["hidden"]) - vocab) if vocab else []
+    known = [r for r in with_fx if not r["unknown_to_engine"]]
     unknown = sorted({u for r in with_fx for u in r.get("unknown_to_engine", [])})
     right_known = sum(r["right"] for r in known)
     frac = right / len(with_fx) if with_fx else float("nan")
