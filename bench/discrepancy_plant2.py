@@ -218,6 +218,9 @@ def main():
             own["named_right"], own["logs_with_effects"], 100 * summary["own_plant"]["median_excess_gap_shrink"]))
         print("| B (plant_b.hpp, this benchmark) | %d / %d | %.0f %% |" % (right, len(with_fx), 100 * median))
     path = a.json or os.path.join(res_dir, "discrepancy_plant2%s.json" % ("" if a.reading == "literal" else "_rpm"))
+    for k in ("named_right_fraction", "median_excess_gap_shrink"):  # strict JSON: no NaN
+        if isinstance(summary[k], float) and math.isnan(summary[k]):
+            summary[k] = None
     with open(path, "w") as f:
         json.dump(summary, f, indent=1)
     print("wrote %s" % path)
