@@ -48,7 +48,7 @@ class InverseModel {
   InverseModel(const Params& p, const Effects& fx = Effects(), InverseConfig cfg = InverseConfig())
       : curves_(p),
         thermal_(p, fx),
-        mech_(p),
+        mech_(p, fx),
         memory_(curves_, from_double<T>(p.T_amb), T(0)),
         wire_step_(thermal_, p, cfg.dt, fx),
         v_max_(from_double<T>(cfg.v_max)),
@@ -67,7 +67,7 @@ class InverseModel {
     T_f_ = T0;
     T_m_ = T0;
     eps_f_ = memory_.eps();
-    u_prev_ = mech_.displacement(memory_.eps());
+    u_prev_ = mech_.displacement(memory_.eps(), T0);
     u_extreme_ = u_prev_;
     rate_ = T(0);
     heating_ = true;
@@ -86,17 +86,17 @@ class InverseModel {
       u_extreme_ = u;
     }
 
-    const T eps_d = mech_.fraction(u);  // eq 14
-    T T_new;
-    if (heating_) {
-      T_new = curves_.heat_temperature(eps_d);  // eq 15
-      // Heating can only raise eps: below the current fraction, hold the temperature.
-      T_new = max(T_new, T_d_);
-    } else {
-      const CoolingLoop<T> loop = memory_.loop_for_cooling();
-      T_new = curves_.cool_temperature(loop, eps_d);  // eq 16, this loop's T_MSi
-      T_new = min(T_new, T_d_);
-    }
+    // Eq 14 then eq 15 or 16. With thermal expansion eq 14 needs the temperature it leads to,
+    // eps_d = (u + k (T(eps_d) - T_a)) / g: a fixed number of fixed-point steps (a contraction:
+    // k dT/deps / g ~ 0.01 inside the band; T stays within the branch's range), no loop
+    // whose length depends on the data.
+    const CoolingLoop<T> loop = heating_ ? CoolingLoop<T>() : memory_.loop_for_cooling();
+    T T_new = branch_temperature(mech_.fraction(u), loop);
+    if (mech_.expands)
+      for (int i = 0; i < kExpansionSteps; ++i) T_new = branch_temperature(mech_.fraction(u, T_new), loop);
+    // Heating can only raise eps: below the current fraction, hold the temperature (and the
+    // cooling branch can only lower it).
+    T_new = heating_ ? max(T_new, T_d_) : min(T_new, T_d_);
     memory_.update(T_new);
     T_d_ = T_new;
     // The filtered path T_f and its exact slope.
@@ -132,6 +132,13 @@ class InverseModel {
   InverseModel& operator=(const InverseModel&) = delete;
 
  private:
+  static constexpr int kExpansionSteps = 3;
+  // The desired temperature for a fraction on the current branch: eq 15 heating, eq 16 cooling
+  // on this loop's T_MSi.
+  T branch_temperature(T eps_d, const CoolingLoop<T>& loop) const {
+    return heating_ ? curves_.heat_temperature(eps_d) : curves_.cool_temperature(loop, eps_d);
+  }
+
   PhaseCurves<T> curves_;
   Thermal<T> thermal_;
   Mechanics<T> mech_;
