@@ -4,7 +4,8 @@ predict every other run.
 
 Data: ../shared/data/real-wire-1m (a public bench: NiTi wire 0.5 mm x 0.99 m against a bias
 spring, see its README.md). Start values are the README's (R 2.97 ohm, d0 0.5 mm, L0 0.99 m,
-T_amb 26 degC, h 35, g 16 mm, transformation 50-65 degC) with the thermal_expansion effect on;
+T_amb 26 degC, h 35, g 16 mm, transformation 50-65 degC) with the effects the data asks for on
+(thermal_expansion, convection_nonlinear, latent_heat: docs/real-bench.md);
 `sma_fit --guess` then reads the start of every other parameter from the training log itself
 (host/include/sma_host/initial_guess.hpp) and `--band-hint 57.5` fixes the heating power's scale,
 which V and d alone cannot tell (docs/real-bench.md).
@@ -30,10 +31,10 @@ import sys
 RUNS = ["ramp01", "ramp02", "step01", "step02", "step03_pr", "step04_sr", "step05_sr", "step06_sr", "step07_sr"]
 TARGET_RUNS = ["ramp01", "ramp02", "step01", "step02", "step03_pr", "step04_sr"]  # the 0.5 mm
 OTHER_LOAD = ["step05_sr", "step06_sr", "step07_sr"]
-FIT = "h,T_AS,T_AF,T_MF,e,g,offset_mm,alpha_per_K,L_J"
+FIT = "h,T_AS,T_AF,T_MF,e,g,offset_mm,alpha_per_K,L_J,beta_per_K"
 START = {  # the bench README's values
     "R": 2.97, "d0": 0.0005, "L0": 0.99, "T_amb": 26.0, "h": 35.0, "g": 16.0, "T_AS": 50.0, "T_AF": 65.0,
-    "effects": {"thermal_expansion": {"alpha_per_K": 1e-5}},
+    "effects": {"thermal_expansion": {"alpha_per_K": 1e-5}, "convection_nonlinear": {"beta_per_K": 0.005}},
 }
 BAND_HINT = 57.5  # middle of the README's 50-65 degC
 

@@ -42,7 +42,8 @@ static const char* kUsage =
     "  --fit NAMES          comma list of parameters to fit (default: all of\n"
     "                       h,T_AS,T_AF,T_MF,q,e,T_MSs,T_MSf,g,offset_mm,j1..jn,T_ii1..T_iin\n"
     "                       where n = number of loops); also available: T_amb, gain, R,\n"
-    "                       alpha_per_K (thermal_expansion), L_J (latent_heat)\n"
+    "                       alpha_per_K (thermal_expansion), L_J (latent_heat),\n"
+    "                       beta_per_K (convection_nonlinear)\n"
     "  --fix NAMES          remove these from the default set\n"
     "  --validate LOG2.csv  a second log, not used for the fit: RMS / max error of the fitted\n"
     "                       model on it (with the fitted sensor offset and with the sensor\n"
@@ -86,6 +87,7 @@ double* ref_off(Model& m, int) { return &m.fx.sensor_offset_mm; }
 double* ref_gain(Model& m, int) { return &m.fx.sensor_gain; }
 double* ref_alpha(Model& m, int) { return &m.fx.thermal_expansion_per_K; }
 double* ref_LJ(Model& m, int) { return &m.fx.latent_heat_J; }
+double* ref_beta(Model& m, int) { return &m.fx.convection_beta_per_K; }
 double* ref_j(Model& m, int k) { return &m.p.loops[k].j; }
 double* ref_Tii(Model& m, int k) { return &m.p.loops[k].T_ii; }
 
@@ -99,7 +101,7 @@ std::vector<ParamSpec> all_specs(const Model& m) {
       {"g", 0.05, true, ref_g, 0},         {"offset_mm", 0.01 * g, false, ref_off, 0},
       {"T_amb", 1.0, false, ref_Tamb, 0},  {"gain", 0.05, true, ref_gain, 0},
       {"R", 0.05, true, ref_R, 0},         {"alpha_per_K", 1e-6, false, ref_alpha, 0},
-      {"L_J", 0.5, false, ref_LJ, 0}};
+      {"L_J", 0.5, false, ref_LJ, 0},      {"beta_per_K", 1e-3, false, ref_beta, 0}};
   for (int k = 0; k < m.p.n_loops; ++k) {
     s.push_back({"j" + std::to_string(k + 1), 0.02, false, ref_j, k});
     s.push_back({"T_ii" + std::to_string(k + 1), 1.0, false, ref_Tii, k});
