@@ -138,6 +138,8 @@ def main():
         }
         result["trainings"][name] = entry
         plot(curves, entry, params, os.path.join(a.out, "real_bench_%s.png" % name.replace("+", "_")), name)
+        if name == "ramp02":
+            physics_plot(curves["step02"], entry["runs"]["step02"], params, os.path.join(a.out, "real_bench_physics.png"))
 
     with open(os.path.join(a.out, "real_bench.json"), "w") as f:
         json.dump(result, f, indent=1)
@@ -183,6 +185,37 @@ def plot(curves, entry, params, path, name):
     alpha = params.get("effects", {}).get("thermal_expansion", {}).get("alpha_per_K", 0.0)
     fig.suptitle("real bench (real-wire-1m), trained on %s: displacement (mm) measured vs model; "
                  "thermal_expansion alpha = %.3g /K" % (name, alpha))
+    fig.tight_layout()
+    fig.savefig(path, dpi=70)
+    plt.close(fig)
+
+
+def physics_plot(d, m, params, path):
+    """step02 seen by the ramp02 model: the stroke g eps alone, and with the wire's expansion."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return
+    off = params.get("effects", {}).get("sensor_calibration", {}).get("offset_mm", 0.0) + m["offset_mm"]
+    alpha = params.get("effects", {}).get("thermal_expansion", {}).get("alpha_per_K", 0.0)
+    t = d["t_s"]
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    ax.plot(t, d["d_mm"], "k", lw=1.2, label="measured (step02)")
+    ax.plot(t, [x + m["offset_mm"] for x in d["d_model_mm"]], "r", lw=1.2,
+            label="model: g eps - 1000 alpha L0 (T - T_a), alpha = %.2g /K" % alpha)
+    ax.plot(t, [params["g"] * e + off for e in d["eps_model"]], "b--", lw=1, label="model without expansion: g eps")
+    ax.set_xlim(10, 50)
+    ax.set_ylim(params["g"] - 3.0, params["g"] + 1.0)
+    ax.set_xlabel("t, s (heater on 10-30 s)")
+    ax.set_ylabel("displacement, mm")
+    ax.grid(alpha=0.3)
+    ax2 = ax.twinx()
+    ax2.plot(t, d["T_model_C"], "tab:orange", lw=0.8, label="model wire temperature")
+    ax2.set_ylabel("model T, degC", color="tab:orange")
+    ax.legend(loc="lower left", fontsize=8)
+    ax.set_title("Hot wire: the position falls while the heater stays on, rises after it goes off")
     fig.tight_layout()
     fig.savefig(path, dpi=70)
     plt.close(fig)
