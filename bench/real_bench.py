@@ -68,6 +68,10 @@ def tared_joint(data, names, path):
             t0 += d["t_s"][-1] + (d["t_s"][1] - d["t_s"][0])
 
 
+def slug(name):
+    return name.replace("+", "_").replace(" ", "_")
+
+
 def rms(xs):
     return math.sqrt(sum(x * x for x in xs) / len(xs)) if xs else float("nan")
 
@@ -105,17 +109,26 @@ def main():
     with open(start, "w") as f:
         json.dump(START, f, indent=1)
 
-    trainings = {"ramp02": None, "ramp02+step02": ["ramp02", "step02"]}
+    # name -> (runs concatenated, or None for the run of that name; with thermal_expansion)
+    trainings = {"ramp02": (None, True), "ramp02+step02": (["ramp02", "step02"], True),
+                 "ramp02 without thermal_expansion": (None, False)}
+    start_plain = os.path.join(work, "start_without_expansion.json")
+    with open(start_plain, "w") as f:
+        plain = json.loads(json.dumps(START))
+        del plain["effects"]["thermal_expansion"]
+        json.dump(plain, f, indent=1)
     result = {"data": a.data, "start": START, "band_hint_C": BAND_HINT, "fit": FIT, "trainings": {}}
-    for name, joint in trainings.items():
-        tdir = os.path.join(work, name.replace("+", "_"))
+    for name, (joint, expansion) in trainings.items():
+        tdir = os.path.join(work, slug(name))
         os.makedirs(tdir, exist_ok=True)
-        log = os.path.join(a.data, name + ".csv")
+        log = os.path.join(a.data, name.split()[0] + ".csv")
         if joint:
             log = os.path.join(tdir, "joint.csv")
             tared_joint(a.data, joint, log)
-        subprocess.run([fit_bin, log, "--params", start, "--guess", "--band-hint", str(BAND_HINT), "--fit", FIT,
-                        "--out", tdir], check=True, stdout=subprocess.DEVNULL)
+        fit_names = FIT if expansion else FIT.replace(",alpha_per_K", "")
+        subprocess.run([fit_bin, log, "--params", start if expansion else start_plain, "--guess", "--band-hint",
+                        str(BAND_HINT), "--fit", fit_names, "--out", tdir],
+                       check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         with open(os.path.join(tdir, "fit.json")) as f:
             fit = json.load(f)
         with open(os.path.join(tdir, "params.json")) as f:
@@ -137,7 +150,7 @@ def main():
             "no_plausibility_warning": not entry["warnings"],
         }
         result["trainings"][name] = entry
-        plot(curves, entry, params, os.path.join(a.out, "real_bench_%s.png" % name.replace("+", "_")), name)
+        plot(curves, entry, params, os.path.join(a.out, "real_bench_%s.png" % slug(name)), name)
         if name == "ramp02":
             physics_plot(curves["step02"], entry["runs"]["step02"], params, os.path.join(a.out, "real_bench_physics.png"))
 
@@ -176,7 +189,8 @@ def plot(curves, entry, params, path, name):
         m = entry["runs"][run]
         ax.plot(d["t_s"], d["d_mm"], "k", lw=1, label="measured")
         ax.plot(d["t_s"], [x + m["offset_mm"] for x in d["d_model_mm"]], "r", lw=1, label="model")
-        ax.set_title("%s: RMS %.2f mm%s" % (run, m["rms_mm"], " (train)" if run in name else ""), fontsize=10)
+        ax.set_title("%s: RMS %.2f mm%s" % (run, m["rms_mm"], " (train)" if run in name.split()[0] else ""),
+                     fontsize=10)
         ax.grid(alpha=0.3)
         ax2 = ax.twinx()
         ax2.plot(d["t_s"], d["T_model_C"], "tab:orange", lw=0.6, alpha=0.6)
