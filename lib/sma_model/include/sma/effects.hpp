@@ -8,7 +8,20 @@
 #ifndef SMA_EFFECTS_HPP
 #define SMA_EFFECTS_HPP
 
+// The Uno's flash is full (34 B free before thermal_expansion, +0.4 KB with it): firmware builds
+// leave that effect out (the field stays, the model ignores it) unless SMA_THERMAL_EXPANSION=1;
+// the host (plant, tools, tests) always has it.
+#ifndef SMA_THERMAL_EXPANSION
+#if defined(__AVR__)
+#define SMA_THERMAL_EXPANSION 0
+#else
+#define SMA_THERMAL_EXPANSION 1
+#endif
+#endif
+
 namespace sma {
+
+constexpr bool kThermalExpansion = SMA_THERMAL_EXPANSION != 0;
 
 struct Effects {
   // sensor_delay: the measurement is the displacement delay_s seconds ago.
@@ -47,7 +60,7 @@ struct Effects {
       return "beta_per_K must be in 0..0.1";
     if (!(resistance_k > -0.9 && resistance_k < 2.0)) return "k_R must be in -0.9..2";
     if (!(latent_heat_J >= 0.0 && latent_heat_J < 100.0)) return "L_J must be in 0..100";
-    if (!(thermal_expansion_per_K >= 0.0 && thermal_expansion_per_K <= 1e-4))
+    if (kThermalExpansion && !(thermal_expansion_per_K >= 0.0 && thermal_expansion_per_K <= 1e-4))
       return "alpha_per_K must be in 0..1e-4";
     return nullptr;
   }

@@ -90,13 +90,22 @@ class InverseModel {
     // eps_d = (u + k (T(eps_d) - T_a)) / g: a fixed number of fixed-point steps (a contraction:
     // k dT/deps / g ~ 0.01 inside the band; T stays within the branch's range), no loop
     // whose length depends on the data.
-    const CoolingLoop<T> loop = heating_ ? CoolingLoop<T>() : memory_.loop_for_cooling();
-    T T_new = branch_temperature(mech_.fraction(u), loop);
-    if (mech_.expands)
-      for (int i = 0; i < kExpansionSteps; ++i) T_new = branch_temperature(mech_.fraction(u, T_new), loop);
-    // Heating can only raise eps: below the current fraction, hold the temperature (and the
-    // cooling branch can only lower it).
-    T_new = heating_ ? max(T_new, T_d_) : min(T_new, T_d_);
+    const bool expands = kThermalExpansion && mech_.expands;
+    const T eps_d = mech_.fraction(u);  // eq 14 at ambient
+    T T_new;
+    if (heating_) {
+      T_new = curves_.heat_temperature(eps_d);  // eq 15
+      if (expands)
+        for (int i = 0; i < kExpansionSteps; ++i) T_new = curves_.heat_temperature(mech_.fraction(u, T_new));
+      // Heating can only raise eps: below the current fraction, hold the temperature.
+      T_new = max(T_new, T_d_);
+    } else {
+      const CoolingLoop<T> loop = memory_.loop_for_cooling();
+      T_new = curves_.cool_temperature(loop, eps_d);  // eq 16, this loop's T_MSi
+      if (expands)
+        for (int i = 0; i < kExpansionSteps; ++i) T_new = curves_.cool_temperature(loop, mech_.fraction(u, T_new));
+      T_new = min(T_new, T_d_);
+    }
     memory_.update(T_new);
     T_d_ = T_new;
     // The filtered path T_f and its exact slope.
@@ -133,11 +142,6 @@ class InverseModel {
 
  private:
   static constexpr int kExpansionSteps = 3;
-  // The desired temperature for a fraction on the current branch: eq 15 heating, eq 16 cooling
-  // on this loop's T_MSi.
-  T branch_temperature(T eps_d, const CoolingLoop<T>& loop) const {
-    return heating_ ? curves_.heat_temperature(eps_d) : curves_.cool_temperature(loop, eps_d);
-  }
 
   PhaseCurves<T> curves_;
   Thermal<T> thermal_;
