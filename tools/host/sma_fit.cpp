@@ -22,6 +22,7 @@
 #include <Eigen/Dense>
 #include <unsupported/Eigen/NonLinearOptimization>
 
+#include "sma_host/initial_guess.hpp"
 #include "sma_tools/cli.hpp"
 #include "sma_tools/params_json.hpp"
 #include "sma_tools/replay.hpp"
@@ -40,7 +41,9 @@ static const char* kUsage =
     "  --params START.json  start values and everything not fitted (default: the paper's)\n"
     "  --fit NAMES          comma list of parameters to fit (default: all of\n"
     "                       h,T_AS,T_AF,T_MF,q,e,T_MSs,T_MSf,g,offset_mm,j1..jn,T_ii1..T_iin\n"
-    "                       where n = number of loops); also available: T_amb, gain, R\n"
+    "                       where n = number of loops); also available: T_amb, gain, R,\n"
+    "                       alpha_per_K (thermal_expansion), L_J (latent_heat),\n"
+    "                       beta_per_K (convection_nonlinear)\n"
     "  --fix NAMES          remove these from the default set\n"
     "  --validate LOG2.csv  a second log, not used for the fit: RMS / max error of the fitted\n"
     "                       model on it (with the fitted sensor offset and with the sensor\n"
@@ -51,7 +54,12 @@ static const char* kUsage =
     "  --max-bad F          refuse a log with more than this fraction of bad rows (0.01)\n"
     "  --loops-at-reversals move the loop knots T_i from the start values to the log's reversal\n"
     "                       temperatures inside (T_s, T_f), where j and T_ii are observed\n"
-    "                       (default set of --fit only)\n";
+    "                       (default set of --fit only)\n"
+    "  --guess              start from values read from the log (sma_host/initial_guess.hpp):\n"
+    "                       h from a grid of replays, the bands where d moves, g, the offset,\n"
+    "                       T_s/T_f/T_MSs/T_MSf/loops tied to the bands; R, d0, L0, T_amb kept\n"
+    "  --band-hint C        with --guess: the wire's nominal heating band middle, degC; fixes\n"
+    "                       the heating power's scale (R), which V and d alone cannot tell\n";
 
 namespace {
 
@@ -77,6 +85,9 @@ double* ref_R(Model& m, int) { return &m.p.R; }
 double* ref_Tamb(Model& m, int) { return &m.p.T_amb; }
 double* ref_off(Model& m, int) { return &m.fx.sensor_offset_mm; }
 double* ref_gain(Model& m, int) { return &m.fx.sensor_gain; }
+double* ref_alpha(Model& m, int) { return &m.fx.thermal_expansion_per_K; }
+double* ref_LJ(Model& m, int) { return &m.fx.latent_heat_J; }
+double* ref_beta(Model& m, int) { return &m.fx.convection_beta_per_K; }
 double* ref_j(Model& m, int k) { return &m.p.loops[k].j; }
 double* ref_Tii(Model& m, int k) { return &m.p.loops[k].T_ii; }
 
@@ -89,7 +100,8 @@ std::vector<ParamSpec> all_specs(const Model& m) {
       {"T_MSs", 1.0, false, ref_TMSs, 0},  {"T_MSf", 1.0, false, ref_TMSf, 0},
       {"g", 0.05, true, ref_g, 0},         {"offset_mm", 0.01 * g, false, ref_off, 0},
       {"T_amb", 1.0, false, ref_Tamb, 0},  {"gain", 0.05, true, ref_gain, 0},
-      {"R", 0.05, true, ref_R, 0}};
+      {"R", 0.05, true, ref_R, 0},         {"alpha_per_K", 1e-6, false, ref_alpha, 0},
+      {"L_J", 0.5, false, ref_LJ, 0},      {"beta_per_K", 1e-3, false, ref_beta, 0}};
   for (int k = 0; k < m.p.n_loops; ++k) {
     s.push_back({"j" + std::to_string(k + 1), 0.02, false, ref_j, k});
     s.push_back({"T_ii" + std::to_string(k + 1), 1.0, false, ref_Tii, k});
@@ -297,6 +309,8 @@ int run(int argc, char** argv) {
   long max_evals = 400;
   double eps0 = 0.0;
   bool loops_at_reversals = false;
+  bool guess = false;
+  double band_hint = NAN;
   LogReadOptions lro;
   if (a.empty()) {
     std::cerr << kUsage;
@@ -317,6 +331,8 @@ int run(int argc, char** argv) {
     else if (k == "--eps0") eps0 = a.number(k);
     else if (k == "--max-bad") lro.max_bad_fraction = a.number(k);
     else if (k == "--loops-at-reversals") loops_at_reversals = true;
+    else if (k == "--guess") guess = true;
+    else if (k == "--band-hint") band_hint = a.number(k);
     else if (!k.empty() && k[0] == '-') throw Error("unknown option '" + k + "' (see --help)");
     else if (log_path.empty()) log_path = k;
     else throw Error("unexpected argument '" + k + "' (one training log; use --validate for a second)");
@@ -355,6 +371,14 @@ int run(int argc, char** argv) {
   if (!(dspan > std::max(20.0 * noise, 1e-3)))
     throw Error(log.name + ": no excitation: d_mm only spans " + fmt(dspan) +
                 " mm (noise about " + fmt(noise) + " mm): the wire did not move");
+  if (guess) {  // start values from the log itself
+    sma_host::GuessOptions go;
+    go.band_hint_C = band_hint;
+    const sma_host::Guess gs = sma_host::initial_guess(log.t, log.v, log.d, start.p, start.fx, go);
+    start.p = gs.p;
+    start.fx = gs.fx;
+    for (const auto& n : gs.notes) notes.push_back(n);
+  }
   if (start.fx.sensor_offset_mm == 0.0) start.fx.sensor_offset_mm = start_offset(log);
 
   // Start model: does it transform at all on this voltage?
@@ -659,6 +683,10 @@ int run(int argc, char** argv) {
     notes.push_back("T_MS set to T_MF + 1 = " + fixed(fitted.p.T_MS, 2) +
                     " to stay > T_MF (T_MS itself is not used by the model)");
   check_model(fitted, "fitted parameters");
+  for (const auto& w : sma_host::plausibility_warnings(fitted.p, fitted.fx)) {
+    std::cerr << "sma_fit: warning: " << w << "\n";
+    notes.push_back("warning: " + w);
+  }
 
   // ---- full-rate traces, validation --------------------------------------------------------------
   Trace trf, trs;

@@ -75,6 +75,9 @@ inline const std::vector<EffectSpec>& vocabulary() {
        {{-0.1, 0}, {0.1, 0}}, 2, "holds inside the transformation band at a constant voltage", {nullptr, nullptr}},
       {"latent_heat", 1, {"L_J", ""}, {&E::latent_heat_J, nullptr}, {0, 0}, {20, 0}, {1, 1},
        {{0.5, 0}, {3.0, 0}}, 2, "fast voltage steps through the transformation band", {nullptr, nullptr}},
+      {"thermal_expansion", 1, {"alpha_per_K", ""}, {&E::thermal_expansion_per_K, nullptr}, {0, 0}, {1e-4, 0},
+       {1e-5, 1}, {{5e-6, 0}, {2e-5, 0}}, 2,
+       "heating past the end of the transformation: the position falls as the hot wire lengthens", {nullptr, nullptr}},
   };
   return v;
 }

@@ -38,6 +38,8 @@ inline std::vector<HiddenCase> hidden_effect_cases() {
       {"convection_nonlinear", &sma::Effects::convection_beta_per_K, 0.01, nullptr, 0},
       {"resistance_phase", &sma::Effects::resistance_k, 0.2, nullptr, 0},
       {"latent_heat", &sma::Effects::latent_heat_J, 3.0, nullptr, 0},
+      // NiTi austenite, ~1.1e-5/K: on the paper's 0.14 m wire 0.15 mm at 130 degC.
+      {"thermal_expansion", &sma::Effects::thermal_expansion_per_K, 1.1e-5, nullptr, 0},
   };
   std::vector<HiddenCase> cases;
   for (int ramp = 0; ramp < 2; ++ramp) {

@@ -100,6 +100,16 @@ TEST(ParamsJson, RoundTripIsExact) {
   EXPECT_EQ(model_to_json(Model()).find("effects"), std::string::npos);  // identity: no key
 }
 
+TEST(ParamsJson, ThermalExpansionKey) {
+  Model m = model_from_text("{\"effects\": {\"thermal_expansion\": {\"alpha_per_K\": 1.1e-5}}}", "te");
+  EXPECT_EQ(m.fx.thermal_expansion_per_K, 1.1e-5);
+  const Model back = model_from_text(model_to_json(m), "round");
+  EXPECT_EQ(back.fx.thermal_expansion_per_K, 1.1e-5);
+  // Outside 0..1e-4 (a negative coefficient would shorten a heated wire): refused, named.
+  const std::string e = error_of("{\"effects\": {\"thermal_expansion\": {\"alpha_per_K\": 2e-4}}}");
+  EXPECT_NE(e.find("alpha_per_K"), std::string::npos) << e;
+}
+
 TEST(ParamsJson, EffectArgument) {
   sma::Effects fx;
   sma_tools::set_effect_arg(fx, "sensor_delay.delay_s=0.1");

@@ -47,7 +47,7 @@ class Controller {
  public:
   Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg)
       : cfg_(cfg),
-        mech_(p),
+        mech_(p, fx),
         inverse_(p, fx, with_dt(cfg.inverse, cfg.dt, cfg.v_max)),
         pid_(cfg.gains, cfg.dt),
         wire_step_(inverse_.thermal(), p, cfg.dt, fx),
@@ -66,7 +66,7 @@ class Controller {
     if (m == mode_ || !valid_) return;
     const bool ff = m == Mode::Feedforward || m == Mode::FeedforwardPid;
     const bool had_ff = mode_ == Mode::Feedforward || mode_ == Mode::FeedforwardPid;
-    if (ff && !had_ff) inverse_.reset(T_wire_, mech_.fraction(measurement));
+    if (ff && !had_ff) inverse_.reset(T_wire_, mech_.fraction(measurement, T_wire_));
     if (m == Mode::Pid || m == Mode::FeedforwardPid) {
       const T v1 = (m == Mode::FeedforwardPid) ? v1_ : T(0);
       pid_.start(measurement, T(0), v_ - v1);
@@ -90,7 +90,7 @@ class Controller {
     // The fraction for a phase-dependent resistance comes from the measurement (V_hold and the
     // estimate); latent heat is left out of the estimate (d(eps)/dt of a noisy measurement
     // would be all noise).
-    eps_meas_ = is_finite(measured) ? mech_.fraction(measured) : T(0);
+    eps_meas_ = is_finite(measured) ? mech_.fraction(measured, T_wire_) : T(0);
     v_ = compute(ref, measured);
     T_wire_ = wire_step_(T_wire_, v_, eps_meas_);
     return v_;

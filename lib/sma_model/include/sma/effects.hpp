@@ -1,13 +1,27 @@
 // Effects the paper's model leaves out (model.md, "known to be incomplete"), with the names of
 // the vocabulary in interfaces.md. All zero / identity by default = the paper's model.
 //
-// The thermal ones enter eq 1 and its inverse eq 17 (thermal.hpp); the sensor ones act on the
-// measured displacement (plant.hpp on the host; the firmware can compensate them). Defined once
+// The thermal ones enter eq 1 and its inverse eq 17 (thermal.hpp); thermal expansion enters
+// eq 12 and its inverse eq 14 (mechanics.hpp); the sensor ones act on the measured displacement
+// (plant.hpp on the host; the firmware can compensate them). Defined once
 // here so the plant, the model, the identification and the firmware agree on their meaning.
 #ifndef SMA_EFFECTS_HPP
 #define SMA_EFFECTS_HPP
 
+// The Uno's flash is full (34 B free before thermal_expansion, +0.4 KB with it): firmware builds
+// leave that effect out (the field stays, the model ignores it) unless SMA_THERMAL_EXPANSION=1;
+// the host (plant, tools, tests) always has it.
+#ifndef SMA_THERMAL_EXPANSION
+#if defined(__AVR__)
+#define SMA_THERMAL_EXPANSION 0
+#else
+#define SMA_THERMAL_EXPANSION 1
+#endif
+#endif
+
 namespace sma {
+
+constexpr bool kThermalExpansion = SMA_THERMAL_EXPANSION != 0;
 
 struct Effects {
   // sensor_delay: the measurement is the displacement delay_s seconds ago.
@@ -26,6 +40,9 @@ struct Effects {
   // latent_heat: L_J joules absorbed by a full martensite -> austenite transformation
   // (released on the way back): C_th dT/dt gains the term - L_J d(eps)/dt.
   double latent_heat_J = 0.0;
+  // thermal_expansion: the wire lengthens as it heats (linear expansion coefficient alpha,
+  // 1/K): the displacement is D = g eps - 1000 alpha L0 (T - T_a) mm (eq 12 holds at ambient).
+  double thermal_expansion_per_K = 0.0;
 
   bool thermal_active() const { return ambient_offset_K != 0.0 || nonlinear_thermal(); }
   // Effects that make eq 1 non-linear (an ambient offset only shifts T_a).
@@ -43,6 +60,8 @@ struct Effects {
       return "beta_per_K must be in 0..0.1";
     if (!(resistance_k > -0.9 && resistance_k < 2.0)) return "k_R must be in -0.9..2";
     if (!(latent_heat_J >= 0.0 && latent_heat_J < 100.0)) return "L_J must be in 0..100";
+    if (kThermalExpansion && !(thermal_expansion_per_K >= 0.0 && thermal_expansion_per_K <= 1e-4))
+      return "alpha_per_K must be in 0..1e-4";
     return nullptr;
   }
 };

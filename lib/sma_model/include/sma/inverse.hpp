@@ -48,7 +48,7 @@ class InverseModel {
   InverseModel(const Params& p, const Effects& fx = Effects(), InverseConfig cfg = InverseConfig())
       : curves_(p),
         thermal_(p, fx),
-        mech_(p),
+        mech_(p, fx),
         memory_(curves_, from_double<T>(p.T_amb), T(0)),
         wire_step_(thermal_, p, cfg.dt, fx),
         v_max_(from_double<T>(cfg.v_max)),
@@ -67,7 +67,7 @@ class InverseModel {
     T_f_ = T0;
     T_m_ = T0;
     eps_f_ = memory_.eps();
-    u_prev_ = mech_.displacement(memory_.eps());
+    u_prev_ = mech_.displacement(memory_.eps(), T0);
     u_extreme_ = u_prev_;
     rate_ = T(0);
     heating_ = true;
@@ -86,15 +86,24 @@ class InverseModel {
       u_extreme_ = u;
     }
 
-    const T eps_d = mech_.fraction(u);  // eq 14
+    // Eq 14 then eq 15 or 16. With thermal expansion eq 14 needs the temperature it leads to,
+    // eps_d = (u + k (T(eps_d) - T_a)) / g: a fixed number of fixed-point steps (a contraction:
+    // k dT/deps / g ~ 0.01 inside the band; T stays within the branch's range), no loop
+    // whose length depends on the data.
+    const bool expands = kThermalExpansion && mech_.expands;
+    const T eps_d = mech_.fraction(u);  // eq 14 at ambient
     T T_new;
     if (heating_) {
       T_new = curves_.heat_temperature(eps_d);  // eq 15
+      if (expands)
+        for (int i = 0; i < kExpansionSteps; ++i) T_new = curves_.heat_temperature(mech_.fraction(u, T_new));
       // Heating can only raise eps: below the current fraction, hold the temperature.
       T_new = max(T_new, T_d_);
     } else {
       const CoolingLoop<T> loop = memory_.loop_for_cooling();
       T_new = curves_.cool_temperature(loop, eps_d);  // eq 16, this loop's T_MSi
+      if (expands)
+        for (int i = 0; i < kExpansionSteps; ++i) T_new = curves_.cool_temperature(loop, mech_.fraction(u, T_new));
       T_new = min(T_new, T_d_);
     }
     memory_.update(T_new);
@@ -132,6 +141,8 @@ class InverseModel {
   InverseModel& operator=(const InverseModel&) = delete;
 
  private:
+  static constexpr int kExpansionSteps = 3;
+
   PhaseCurves<T> curves_;
   Thermal<T> thermal_;
   Mechanics<T> mech_;

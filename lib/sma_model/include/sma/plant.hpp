@@ -2,7 +2,7 @@
 // mechanics.hpp), plus what a real rig adds and the model may not know: the effects of
 // effects.hpp, sensor noise, ADC quantisation and PWM quantisation.
 //
-//   V --(PWM levels)--> thermal ODE --> T --> hysteresis --> eps --> D = g eps
+//   V --(PWM levels)--> thermal ODE --> T --> hysteresis --> eps --> D = g eps - k (T - T_a)
 //   D --> calibration --> lag --> delay --> noise --> ADC step --> measured
 //
 // Host side only (tests, virtual rig, tools): its sensor-delay history alone is 128 KB.
@@ -87,7 +87,7 @@ class Plant {
         thermal_(p, fx),
         curves_(p),
         hyst_(curves_, p.T_amb + fx.ambient_offset_K, 0.0),
-        mech_(p),
+        mech_(p, fx),
         noise_(rig.seed) {
     reset(p.T_amb + fx.ambient_offset_K, 0.0);
   }
@@ -136,7 +136,7 @@ class Plant {
   // Ground truth.
   double temperature() const { return T_; }
   double fraction() const { return hyst_.eps(); }
-  double displacement() const { return mech_.displacement(hyst_.eps()); }
+  double displacement() const { return mech_.displacement(hyst_.eps(), T_); }  // eq 12 + expansion
   double time() const { return t_; }
   const Hysteresis<double>& hysteresis() const { return hyst_; }
 

@@ -28,7 +28,7 @@ class SensorPredictor {
  public:
   SensorPredictor(const PhaseCurves<T>& curves, const Params& p, const Effects& fx, double dt)
       : walker_(curves, from_double<T>(p.T_amb + fx.ambient_offset_K), T(0)),
-        mech_(p),
+        mech_(p, fx),
         inv_gain_(from_double<T>(1.0 / fx.sensor_gain)),
         offset_(from_double<T>(fx.sensor_offset_mm)),
         a_(from_double<T>(1.0 - ::exp(-dt / (fx.sensor_lag_s + fx.sensor_delay_s + 1e-9)))),
@@ -38,7 +38,7 @@ class SensorPredictor {
   // Restart from a wire at rest at T0 with fraction eps0 (a mode change).
   void reset(T T0, T eps0) {
     walker_.reset(T0, eps0);
-    y_s_ = mech_.displacement(walker_.eps());
+    y_s_ = mech_.displacement(walker_.eps(), T0);
   }
 
   // One tick: the raw measurement and the controller's wire temperature estimate for this
@@ -46,7 +46,7 @@ class SensorPredictor {
   T correct(T measured, T wire_temperature) {
     const T d = (measured - offset_) * inv_gain_;  // calibration, inverted
     if (!dynamic_) return d;
-    const T y_m = mech_.displacement(walker_.update(wire_temperature));
+    const T y_m = mech_.displacement(walker_.update(wire_temperature), wire_temperature);
     y_s_ = y_s_ + a_ * (y_m - y_s_);
     return d + (y_m - y_s_);
   }

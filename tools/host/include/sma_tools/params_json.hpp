@@ -56,7 +56,8 @@ inline const std::vector<EffectKey>& effect_keys() {
       {"ambient_offset", "offset_K", &sma::Effects::ambient_offset_K},
       {"convection_nonlinear", "beta_per_K", &sma::Effects::convection_beta_per_K},
       {"resistance_phase", "k_R", &sma::Effects::resistance_k},
-      {"latent_heat", "L_J", &sma::Effects::latent_heat_J}};
+      {"latent_heat", "L_J", &sma::Effects::latent_heat_J},
+      {"thermal_expansion", "alpha_per_K", &sma::Effects::thermal_expansion_per_K}};
   return keys;
 }
 
