@@ -9,7 +9,10 @@
 //    the position first moves away from the new direction (e.g. up after a down-step: the
 //    minor-loop rise of eqs 5-6), measured from where it was at the reversal;
 //  - settle_s / settle_max_s: steps: mean / worst time to come within 5 % of the step and stay.
-//  - sse_mm: steps: max |mean error| over the last 2 s of each step.
+//  - sse_mm: steps: for each step, the smallest |mean error| over a 2 s window (0.5 s apart) in
+//    the step's second half; the max over steps. A step that never sits on its setpoint has
+//    a large one; a controller that leaves a setpoint early for the next move (preview) is not
+//    charged for it here (the whole-run figures charge it).
 // Paper-style figures, kept beside them and labelled as such (they count only part of the run):
 //  - max_heat_mm, rms_heat_mm, max_cool_mm: sine: while the reference rises / falls (same as
 //    the phases); steps: from the first arrival at the new setpoint on (so the jump and a
@@ -19,6 +22,7 @@
 #define SMA_HOST_METRICS_HPP
 
 #include <math.h>
+#include <cmath>
 #include <vector>
 #include "closed_loop.hpp"
 
@@ -35,7 +39,7 @@ struct Metrics {
   double wrong_way_mm = 0;  // max move away from the new direction after a reversal or step
   double settle_s = 0;      // steps: mean time to enter and stay within 5 % of the step
   double settle_max_s = 0;  // steps: worst such time
-  double sse_mm = 0;        // steps: max |mean error| over the last 2 s of each step
+  double sse_mm = 0;        // steps: steady-state error (see the header comment)
   // Paper-style (partial: see the header comment).
   double max_heat_mm = 0;
   double rms_heat_mm = 0;
@@ -71,6 +75,22 @@ inline double wrong_way(const std::vector<Sample>& run, size_t k0, size_t end, b
     if (away > w) w = away;
   }
   return w;
+}
+// The smallest |mean error| over 2 s windows, 0.5 s apart, in the second half of [k0, end).
+inline double steady_error(const std::vector<Sample>& run, size_t k0, size_t end, bool measured) {
+  const double t0 = run[k0].t, t1 = run[end - 1].t;
+  double best = INFINITY;
+  for (double w = 0.5 * (t0 + t1); w + 2.0 <= t1 + 1e-9; w += 0.5) {
+    double sum = 0;
+    long n = 0;
+    for (size_t k = k0; k < end; ++k)
+      if (run[k].t >= w - 1e-9 && run[k].t < w + 2.0 - 1e-9) {
+        sum += err_of(run[k], measured);
+        ++n;
+      }
+    if (n) best = fmin(best, fabs(sum / static_cast<double>(n)));
+  }
+  return std::isfinite(best) ? best : 0.0;
 }
 }  // namespace detail
 
@@ -161,7 +181,7 @@ inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool 
         ++n_settle;
       }
     }
-    if (tail_n) m.sse_mm = fmax(m.sse_mm, fabs(tail_sum / static_cast<double>(tail_n)));
+    if (tail_n) m.sse_mm = fmax(m.sse_mm, detail::steady_error(run, start, end, measured));
     // Paper-style: a step the position never reached has its last 2 s as its error.
     if (!arrived && fabs(step) > 1e-9 && tail_n) {
       if (up) {

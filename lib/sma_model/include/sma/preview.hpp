@@ -55,6 +55,8 @@ struct PreviewConfig {
   double offset_tau_s = 1.0;   // integral action: time constant of the offset estimate, s
   double cool_weight = 1.0;    // trade-off: weight of errors while the reference falls
   double deadband_mm = 1e-4;   // a reference turn smaller than this is not a turn
+  double switch_margin_mm = 0.0125;  // a switch must beat waiting by this RMS error over the
+                                     // horizon: small offsets of a fitted model never switch
 
   const char* check() const {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
@@ -66,6 +68,7 @@ struct PreviewConfig {
     if (!(offset_tau_s > 0.0 && offset_tau_s <= 100.0)) return "offset_tau_s must be in 0..100";
     if (!(cool_weight >= 0.0 && cool_weight <= 100.0)) return "cool_weight must be in 0..100";
     if (!(deadband_mm >= 0.0 && deadband_mm < 1.0)) return "deadband_mm must be in 0..1";
+    if (!(switch_margin_mm >= 0.0 && switch_margin_mm < 1.0)) return "switch_margin_mm must be in 0..1";
     return nullptr;
   }
 };
@@ -91,6 +94,8 @@ class PreviewController {
         inv_track_(from_double<T>(1.0 / cfg.track_s)),
         d_alpha_(from_double<T>(1.0 - ::exp(-cfg.dt / cfg.offset_tau_s))),
         cool_w_(from_double<T>(cfg.cool_weight)),
+        switch_margin_(from_double<T>(100.0 * cfg.switch_margin_mm * cfg.switch_margin_mm *
+                                      (cfg.horizon_s / cfg.grid_s))),
         deadband_(from_double<T>(cfg.deadband_mm)),
         n_grid_(static_cast<uint8_t>(cfg.horizon_s / cfg.grid_s + 0.5)),
         valid_(p.check() == nullptr && fx.check() == nullptr && cfg.check() == nullptr) {
@@ -222,15 +227,17 @@ class PreviewController {
     ++elapsed_ticks_;
     for (uint8_t s = 0; s < cfg_.steps_per_tick; ++s) {
       if (j_ >= n_grid_) {
-        // Ties keep the later switch: a switch that buys nothing is not made (e.g. heating a
-        // wire on a flat stage, which moves nothing yet).
-        if (best_cost_ < T(0) || cost_ < best_cost_ - switch_margin_) {
+        // Ties keep the later switch; and switching at all (any timed candidate) must beat
+        // following the reference by the margin: a switch that buys little is not made
+        // (e.g. heating a wire on a flat stage, which moves nothing yet).
+        if (switch_at_[cand_] == kNever) natural_cost_ = cost_;
+        if (best_cost_ < T(0) || cost_ < best_cost_) {
           best_cost_ = cost_;
           best_ = switch_at_[cand_];
         }
         if (++cand_ >= kCandidates) {
           ++plans_;
-          if (best_ == 0) {  // switching now beats every later switch: switch
+          if (best_ == 0 && best_cost_ < natural_cost_ - switch_margin_) {  // switch now
             heating_ = !heating_;
             moved_with_ = false;
             ref_extreme_ = ref_now_;
@@ -292,8 +299,9 @@ class PreviewController {
   ThermalStep<T> grid_step_;
   Hysteresis<T> est_;    // loop memory of the model wire
   Hysteresis<T> sim_h_;  // its copy, walked by the plan
-  T v_max_, inv_dt_, inv_track_, d_alpha_, cool_w_, deadband_;
-  T switch_margin_ = T(0.01);  // cost units: (0.1 mm)^2 grid steps
+  T v_max_, inv_dt_, inv_track_, d_alpha_, cool_w_;
+  T switch_margin_;  // cost units: (0.1 mm)^2 grid steps
+  T deadband_;
   uint8_t n_grid_;
   bool valid_;
   uint8_t switch_at_[kCandidates];
@@ -306,7 +314,7 @@ class PreviewController {
   T r_[kMaxGrid];
   uint8_t cand_ = 0, j_ = 0, best_ = kNever;
   uint16_t elapsed_ticks_ = 0, plans_ = 0;
-  T best_cost_ = T(-1), cost_ = T(0), sim_T_ = T(22), sim_ext_ = T(0);
+  T best_cost_ = T(-1), natural_cost_ = T(0), cost_ = T(0), sim_T_ = T(22), sim_ext_ = T(0);
   bool sim_heat_ = true, sim_moved_ = true, sim_fall_ = false;
 };
 
