@@ -62,7 +62,7 @@ struct PreviewConfig {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
     if (!(v_max > 0.0 && v_max <= 5.0)) return "v_max must be in 0..5";
     if (!(grid_s >= dt && grid_s <= 5.0)) return "grid_s must be in dt..5";
-    if (!(horizon_s >= grid_s && horizon_s / grid_s <= 64.0)) return "horizon_s must be in grid_s..64 grid_s";
+    if (!(horizon_s >= grid_s && horizon_s / grid_s <= 40.0)) return "horizon_s must be in grid_s..40 grid_s";
     if (!(steps_per_tick >= 1)) return "steps_per_tick must be >= 1";
     if (!(track_s >= dt && track_s <= 10.0)) return "track_s must be in dt..10";
     if (!(offset_tau_s > 0.0 && offset_tau_s <= 100.0)) return "offset_tau_s must be in 0..100";
@@ -76,7 +76,7 @@ struct PreviewConfig {
 template <class T>
 class PreviewController {
  public:
-  static constexpr uint8_t kMaxGrid = 64;
+  static constexpr uint8_t kMaxGrid = 40;
   static constexpr uint8_t kCandidates = 7;
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
 
