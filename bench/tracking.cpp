@@ -1,8 +1,9 @@
 // Tracking benchmark: the paper's two references on the simulated plant, for PID alone,
-// feedforward alone and feedforward + PID, in double, float and Q16.16 fixed point, in the
-// ideal and rig-like conditions of model.md. Gains: tuned per controller, test and condition in
-// double by sma_host::tune_pid (the same method for all). Prints a Markdown table and writes
-// JSON; also the plant's speed in simulated seconds per wall second.
+// feedforward alone, feedforward + PID and the preview controller (preview.hpp), in double,
+// float and Q16.16 fixed point, in the ideal and rig-like conditions of model.md. Settings:
+// tuned per controller, test and condition by sma_host::tune_pid / tune_preview (the same
+// method and objective for all: whole-run RMS + 0.1x whole-run max, tune.hpp). Prints a
+// Markdown table and writes JSON; also the plant's speed in simulated seconds per wall second.
 //
 //   bench_tracking [--json FILE] [--quick]
 #include <chrono>
@@ -21,6 +22,7 @@ namespace {
 struct Row {
   std::string test, condition, controller, scalar;
   sma::PidGains gains;
+  sma::PreviewConfig preview;
   Metrics m;
 };
 
@@ -42,7 +44,9 @@ int main(int argc, char** argv) {
     }
   }
   std::vector<Row> rows;
-  const sma::Mode modes[] = {sma::Mode::Pid, sma::Mode::Feedforward, sma::Mode::FeedforwardPid};
+  const sma::Mode modes[] = {sma::Mode::Pid, sma::Mode::Feedforward, sma::Mode::FeedforwardPid,
+                             sma::Mode::Preview};
+  const sma_host::Objective objective = sma_host::Objective::WholeRun;
   int done = 0;
   for (int c = 0; c < 2; ++c)
     for (int sine = 1; sine >= 0; --sine)
@@ -51,13 +55,14 @@ int main(int argc, char** argv) {
         s.mode = mode;
         s.condition = c ? Condition::rig_like() : Condition::ideal();
         s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
-        if (mode != sma::Mode::Feedforward) s.config.gains = sma_host::tune_pid(s).gains;
-        std::fprintf(stderr, "\r[%2d/12] tuning and running %-5s %-5s %-8s", ++done,
+        if (mode == sma::Mode::Preview) s.preview = sma_host::tune_preview(s, objective).config;
+        else if (mode != sma::Mode::Feedforward) s.config.gains = sma_host::tune_pid(s, objective).gains;
+        std::fprintf(stderr, "\r[%2d/16] tuning and running %-5s %-5s %-8s", ++done,
                      sine ? "sine" : "steps", sma::mode_name(mode), s.condition.name);
         const char* names[] = {"double", "float", "fixed"};
         for (int k = 0; k < 3; ++k) {
           Row r{sine ? "sine" : "multi-step", s.condition.name, sma::mode_name(mode), names[k],
-                s.config.gains, Metrics()};
+                s.config.gains, s.preview, Metrics()};
           r.m = k == 0 ? run<double>(s) : k == 1 ? run<float>(s) : run<sma::Fixed>(s);
           rows.push_back(r);
         }
@@ -77,13 +82,21 @@ int main(int argc, char** argv) {
     speed[e] = n * 0.01 / wall;
   }
 
-  std::printf("| test | condition | controller | scalar | kp | ki | kd | RMS mm | max heat mm | "
-              "max cool mm | overshoot %% | settle s |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-  for (const Row& r : rows)
-    std::printf("| %s | %s | %s | %s | %.3g | %.3g | %.3g | %.4f | %.4f | %.4f | %.1f | %.2f |\n",
+  std::printf("Tuned for: %s. Whole run (sine: after its first period; steps: from t = 0), phases "
+              "with their transitions, then the paper-style partial figures (labelled). Preview rows: "
+              "kp = track_s, ki = offset_tau_s, kd = cool_weight.\n\n", sma_host::objective_name(objective));
+  std::printf("| test | condition | controller | scalar | kp | ki | kd | max mm | RMS mm | max rise mm | "
+              "max fall mm | RMS fall mm | wrong-way mm | settle max s | SSE mm | (paper) max heat mm | "
+              "(paper) max cool mm |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (Row r : rows) {
+    if (r.controller == "preview") r.gains = {r.preview.track_s, r.preview.offset_tau_s, r.preview.cool_weight};
+    std::printf("| %s | %s | %s | %s | %.3g | %.3g | %.3g | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.2f | "
+                "%.4f | %.4f | %.4f |\n",
                 r.test.c_str(), r.condition.c_str(), r.controller.c_str(), r.scalar.c_str(), r.gains.kp,
-                r.gains.ki, r.gains.kd, r.m.rms_mm, r.m.max_heat_mm, r.m.max_cool_mm,
-                r.m.overshoot_pct, r.m.settle_s);
+                r.gains.ki, r.gains.kd, r.m.max_mm, r.m.rms_mm, r.m.max_rise_mm, r.m.max_fall_mm,
+                r.m.rms_fall_mm, r.m.wrong_way_mm, r.m.settle_max_s, r.m.sse_mm, r.m.max_heat_mm,
+                r.m.max_cool_mm);
+  }
   std::printf("\nPlant speed: %.0f simulated s per wall s (paper's model), %.0f (with latent heat, "
               "5 ms sub-steps)\n", speed[0], speed[1]);
 
@@ -98,11 +111,17 @@ int main(int argc, char** argv) {
     const Row& r = rows[i];
     std::fprintf(f,
                  "    {\"test\": \"%s\", \"condition\": \"%s\", \"controller\": \"%s\", \"scalar\": \"%s\", "
-                 "\"kp\": %g, \"ki\": %g, \"kd\": %g, \"rms_mm\": %.6f, \"max_heat_mm\": %.6f, "
-                 "\"max_cool_mm\": %.6f, \"overshoot_pct\": %.3f, \"settle_s\": %.3f, \"sse_mm\": %.6f}%s\n",
+                 "\"kp\": %g, \"ki\": %g, \"kd\": %g, \"max_mm\": %.6f, \"rms_mm\": %.6f, "
+                 "\"max_rise_mm\": %.6f, \"rms_rise_mm\": %.6f, \"max_fall_mm\": %.6f, \"rms_fall_mm\": %.6f, "
+                 "\"wrong_way_mm\": %.6f, \"settle_s\": %.3f, \"settle_max_s\": %.3f, \"sse_mm\": %.6f, "
+                 "\"max_heat_mm\": %.6f, \"rms_heat_mm\": %.6f, \"max_cool_mm\": %.6f, \"overshoot_pct\": %.3f, \"track_s\": %g, \"offset_tau_s\": %g, "
+                 "\"cool_weight\": %g}%s\n",
                  r.test.c_str(), r.condition.c_str(), r.controller.c_str(), r.scalar.c_str(), r.gains.kp,
-                 r.gains.ki, r.gains.kd, r.m.rms_mm, r.m.max_heat_mm, r.m.max_cool_mm, r.m.overshoot_pct,
-                 r.m.settle_s, r.m.sse_mm, i + 1 < rows.size() ? "," : "");
+                 r.gains.ki, r.gains.kd, r.m.max_mm, r.m.rms_mm, r.m.max_rise_mm, r.m.rms_rise_mm,
+                 r.m.max_fall_mm, r.m.rms_fall_mm, r.m.wrong_way_mm, r.m.settle_s, r.m.settle_max_s,
+                 r.m.sse_mm, r.m.max_heat_mm, r.m.rms_heat_mm, r.m.max_cool_mm, r.m.overshoot_pct,
+                 r.preview.track_s, r.preview.offset_tau_s, r.preview.cool_weight,
+                 i + 1 < rows.size() ? "," : "");
   }
   std::fprintf(f, "  ]\n}\n");
   std::fclose(f);

@@ -61,3 +61,55 @@ TEST(Metrics, StepNeverReachedCountsItsShortfall) {
   EXPECT_EQ(m.overshoot_pct, 0.0);
 }
 }  // namespace
+
+namespace {
+// A down-step 0.8 -> 0.5 mm at t = 10 s where the wire first rises to 0.88 mm in 1 s (the
+// minor-loop rise) and then falls linearly to 0.5 mm by t = 13 s: the whole-run figures see the
+// 0.38 mm error and the 0.08 mm wrong-way move; the paper-style cooling figure, which counts
+// from the first arrival at the setpoint, sees nothing.
+TEST(Metrics, DownStepWrongWayAndWholeRun) {
+  std::vector<sma_host::Sample> run;
+  for (int k = 0; k < 2000; ++k) {
+    const double t = 0.01 * k;
+    double y = 0.8;
+    if (t >= 10.0 && t < 11.0) y = 0.8 + 0.08 * (t - 10.0);
+    else if (t >= 11.0 && t < 13.0) y = 0.88 - 0.19 * (t - 11.0);
+    else if (t >= 13.0) y = 0.5;
+    run.push_back(at(t, t < 10.0 ? 0.8 : 0.5, y));
+  }
+  const sma_host::Metrics m = sma_host::step_metrics(run, 10.0);
+  EXPECT_NEAR(m.wrong_way_mm, 0.08, 1e-3);
+  EXPECT_NEAR(m.max_fall_mm, 0.38, 1e-3);
+  EXPECT_NEAR(m.max_mm, 0.38, 1e-3);
+  EXPECT_EQ(m.max_rise_mm, 0.0);  // the first segment starts on its setpoint
+  EXPECT_NEAR(m.max_cool_mm, 0.0, 1e-9);  // paper-style: from arrival on, it holds exactly
+  // Within 5 % of the 0.3 mm step (0.515 mm) from t = 11 + 0.365 / 0.19 s on.
+  EXPECT_NEAR(m.settle_s, 1.0 + 0.365 / 0.19, 0.02);
+  EXPECT_NEAR(m.settle_max_s, m.settle_s, 1e-12);
+  // RMS over the whole run: the error integral of the two ramps, over 20 s.
+  // Rise: e = 0.3 + 0.08 s, s in 0..1; fall: e = 0.38 - 0.19 s, s in 0..2.
+  const double i1 = (pow(0.38, 3) - pow(0.3, 3)) / (3 * 0.08);
+  const double i2 = pow(0.38, 3) / (3 * 0.19);
+  EXPECT_NEAR(m.rms_mm, sqrt((i1 + i2) / 20.0), 2e-3);
+}
+
+// Sine: after each peak the position keeps rising 0.05 mm for 1 s (then jumps back onto the
+// reference); the wrong-way excursion is that rise, counted at every peak after the first period.
+TEST(Metrics, SineWrongWayAfterPeak) {
+  const double period = 10.0;
+  std::vector<sma_host::Sample> run;
+  for (int k = 0; k <= 4000; ++k) {
+    const double t = 0.01 * k;
+    const double ref = 0.45 - 0.25 * cos(2 * M_PI * t / period);
+    const double since_peak = fmod(t + 0.5 * period, period);  // peaks at 5, 15, 25, 35 s
+    const double y = since_peak < 1.0 ? 0.7 + 0.05 * since_peak : ref;
+    run.push_back(at(t, ref, y));
+  }
+  const sma_host::Metrics m = sma_host::sine_metrics(run, period);
+  EXPECT_NEAR(m.wrong_way_mm, 0.05, 1e-3);
+  EXPECT_EQ(m.max_rise_mm, 0.0);  // the bump is entirely in the falling half
+  // The largest error: at 1 s after the peak, 0.75 mm against 0.45 + 0.25 cos(2 pi / 10).
+  EXPECT_NEAR(m.max_fall_mm, 0.75 - (0.45 + 0.25 * cos(2 * M_PI / period)), 2e-3);
+  EXPECT_NEAR(m.max_mm, m.max_fall_mm, 1e-12);
+}
+}  // namespace

@@ -1,9 +1,11 @@
 // sma_metrics LOG.csv --test sine|steps [--period S] [--step S] [--start S]
 // Tracking metrics of a closed-loop rig log (needs ref_mm), with the definitions of the
-// benchmark and the tests (host/include/sma_host/metrics.hpp): RMS, max |error| while heating
-// and cooling, overshoot, settling, steady-state error; on the measured position. Prints JSON.
+// benchmark and the tests (host/include/sma_host/metrics.hpp): whole-run max and RMS, per
+// phase (rise / fall, transitions included), wrong-way excursion, settling, steady-state error,
+// and the paper-style partial figures (max_heat_mm, ...); on the measured position. Prints JSON.
 // --start drops the log before that time (the command that started the run).
 #include <iostream>
+#include <utility>
 #include "sma_host/metrics.hpp"
 #include "sma_tools/cli.hpp"
 #include "sma_tools/json.hpp"
@@ -40,9 +42,18 @@ int run(int argc, char** argv) {
   if (run.size() < 2) throw Error(path + ": no samples after --start");
   const sma_host::Metrics m = test == "sine" ? sma_host::sine_metrics(run, period, true)
                                              : sma_host::step_metrics(run, step, true);
-  std::cout << "{\"rms_mm\": " << number(m.rms_mm) << ", \"max_heat_mm\": " << number(m.max_heat_mm)
-            << ", \"rms_heat_mm\": " << number(m.rms_heat_mm) << ", \"max_cool_mm\": " << number(m.max_cool_mm) << ", \"overshoot_pct\": " << number(m.overshoot_pct)
-            << ", \"settle_s\": " << number(m.settle_s) << ", \"sse_mm\": " << number(m.sse_mm) << "}\n";
+  const std::pair<const char*, double> fields[] = {
+      {"max_mm", m.max_mm},           {"rms_mm", m.rms_mm},
+      {"max_rise_mm", m.max_rise_mm}, {"rms_rise_mm", m.rms_rise_mm},
+      {"max_fall_mm", m.max_fall_mm}, {"rms_fall_mm", m.rms_fall_mm},
+      {"wrong_way_mm", m.wrong_way_mm}, {"settle_s", m.settle_s},
+      {"settle_max_s", m.settle_max_s}, {"sse_mm", m.sse_mm},
+      {"max_heat_mm", m.max_heat_mm}, {"rms_heat_mm", m.rms_heat_mm},
+      {"max_cool_mm", m.max_cool_mm}, {"overshoot_pct", m.overshoot_pct}};
+  std::cout << "{";
+  for (size_t i = 0; i < sizeof fields / sizeof fields[0]; ++i)
+    std::cout << (i ? ", " : "") << "\"" << fields[i].first << "\": " << number(fields[i].second);
+  std::cout << "}\n";
   return 0;
 }
 }  // namespace

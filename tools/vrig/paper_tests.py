@@ -120,28 +120,35 @@ def main():
 
     print("\nThe firmware (ATmega328P ELF, float) in the virtual rig, 2 um sensor noise, errors on the "
           "measured position:\n")
-    print("| test | controller | kp, ki, kd | RMS mm | max heat mm | max cool mm | overshoot % | settle s | "
-          "control cycles max/mean |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("Whole run (the sine after its first period), phases with their transitions; the paper's "
+          "heating-only figure last, labelled:\n")
+    print("| test | controller | kp, ki, kd | max mm | RMS mm | max rise mm | max fall mm | RMS fall mm | "
+          "wrong-way mm | settle max s | SSE mm | (paper) max heat mm | control cycles max/mean |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for test, _, _ in TESTS:
         for mode, label in MODES:
             m = results[f"{test}_{mode}"]
             c = m["cycles"]
             g = m["gains"] if isinstance(m["gains"], str) else ", ".join("%.3g" % x for x in m["gains"])
-            print(f"| {test} | {label} | {g} | {m['rms_mm']:.4f} | {m['max_heat_mm']:.4f} | {m['max_cool_mm']:.4f} | "
-                  f"{m['overshoot_pct']:.1f} | {m['settle_s']:.2f} | {c['control_cycles_max']}/{c['control_cycles_mean']:.0f} |")
+            print(f"| {test} | {label} | {g} | {m['max_mm']:.4f} | {m['rms_mm']:.4f} | {m['max_rise_mm']:.4f} | "
+                  f"{m['max_fall_mm']:.4f} | {m['rms_fall_mm']:.4f} | {m['wrong_way_mm']:.4f} | "
+                  f"{m['settle_max_s']:.2f} | {m['sse_mm']:.4f} | {m['max_heat_mm']:.4f} | "
+                  f"{c['control_cycles_max']}/{c['control_cycles_mean']:.0f} |")
     for test, _, _ in TESTS:
         p, f = results[f"{test}_pid"]["max_heat_mm"], results[f"{test}_ffpid"]["max_heat_mm"]
         if p > 0:
-            print(f"\n{test}: max |error| while heating, inverse + PID vs PID alone: {100 * (1 - f / p):+.1f} % "
-                  f"(the paper: 51.4 % better on its sine)")
+            print(f"\n{test}: (paper-style, heating only) max |error| while heating, inverse + PID vs PID "
+                  f"alone: {100 * (1 - f / p):+.1f} % (the paper: 51.4 % better on its sine)")
+        p, f = results[f"{test}_pid"]["max_mm"], results[f"{test}_ffpid"]["max_mm"]
+        if p > 0:
+            print(f"{test}: whole run, max |error|, inverse + PID vs PID alone: {100 * (1 - f / p):+.1f} %")
     with open(os.path.join(out, "paper_tests.json"), "w") as f:
         json.dump(results, f, indent=2)
-    plot(out)
+    plot(out, results)
     print(f"\nwrote {out}/paper_tests.json and fig09..fig13.png")
 
 
-def plot(out):
+def plot(out, results=None):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -156,6 +163,11 @@ def plot(out):
         for mode, label in MODES:
             d = read_log(os.path.join(out, f"{test}_{mode}.csv"))
             y = {"position": d["d_mm"], "error": d["ref_mm"] - d["d_mm"], "voltage": d["v_V"]}[what]
+            if results and f"{test}_{mode}" in results:
+                m = results[f"{test}_{mode}"]
+                label += (f" (whole run: max {m['max_mm']:.3f}, RMS {m['rms_mm']:.3f} mm; rising max "
+                          f"{m['max_rise_mm']:.3f}, falling max {m['max_fall_mm']:.3f}, wrong-way "
+                          f"{m['wrong_way_mm']:.3f} mm)")
             ax.plot(d["t_s"], y, color=colors[mode], lw=1, label=label)
         if what == "position":
             ax.plot(d["t_s"], d["ref_mm"], "k--", lw=1, label="reference")

@@ -7,6 +7,7 @@
 #include <vector>
 #include "sma/controller.hpp"
 #include "sma/plant.hpp"
+#include "sma/preview.hpp"
 #include "sma/reference.hpp"
 #include "sma/sensor.hpp"
 
@@ -44,6 +45,7 @@ struct RunSetup {
   sma::Params model_params;       // what the controller believes
   sma::Effects model_effects;
   sma::ControllerConfig config;
+  sma::PreviewConfig preview;     // Mode::Preview (dt and v_max come from config)
   sma::Mode mode = sma::Mode::FeedforwardPid;
   sma::Reference reference = sma::Reference::sine();
   Condition condition;
@@ -57,8 +59,41 @@ inline bool has_sensor_effects(const sma::Effects& fx) {
   return fx.sensor_delay_s > 0 || fx.sensor_lag_s > 0 || fx.sensor_gain != 1.0 || fx.sensor_offset_mm != 0.0;
 }
 
+// Mode::Preview: the PreviewController, given the reference's future as the board would
+// (ReferenceGen at t + tau). Same plant, delay and sampling as run_closed_loop.
+template <class T>
+std::vector<Sample> run_preview_loop(const RunSetup& s) {
+  sma::Plant plant(s.plant_params, s.plant_effects, s.condition.rig);
+  sma::PreviewConfig pc = s.preview;
+  pc.dt = s.config.dt;
+  pc.v_max = s.config.v_max;
+  sma::PreviewController<T> ctl(s.model_params, s.model_effects, pc);
+  sma::ReferenceGen<T> ref(s.reference);
+  const double dt = s.config.dt;
+  const double duration = s.duration_s > 0.0 ? s.duration_s : s.reference.duration();
+  const long n = static_cast<long>(duration / dt + 0.5);
+  std::vector<double> pending(static_cast<size_t>(s.condition.compute_delay_ticks) + 1, 0.0);
+  std::vector<Sample> out;
+  out.reserve(static_cast<size_t>(n));
+  for (long k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) * dt;
+    const double meas = plant.measure();
+    const T r = ref.at(t);
+    auto future = [&](T tau) { return ref.at(t + sma::to_double(tau)); };
+    const double v_cmd = sma::to_double(ctl.step(r, future, sma::from_double<T>(meas)));
+    pending.push_back(v_cmd);
+    const double v = pending.front();
+    pending.erase(pending.begin());
+    out.push_back({t, sma::to_double(r), meas, plant.displacement(), plant.applied_voltage(v), 0.0,
+                   plant.temperature()});
+    plant.step(v, dt);
+  }
+  return out;
+}
+
 template <class T>
 std::vector<Sample> run_closed_loop(const RunSetup& s) {
+  if (s.mode == sma::Mode::Preview) return run_preview_loop<T>(s);
   sma::Plant plant(s.plant_params, s.plant_effects, s.condition.rig);
   sma::Controller<T> ctl(s.model_params, s.model_effects, s.config);
   sma::ReferenceGen<T> ref(s.reference);

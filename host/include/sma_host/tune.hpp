@@ -1,10 +1,13 @@
 // Tuning: every controller is tuned for its own best result by the same method, never
-// handicapped. Method: a coarse log-grid over (kp, ki, kd), then coordinate descent with
-// shrinking factors around the best point. Each controller is tuned per test and condition,
-// for the figure that test compares: the max |error| while heating (metrics.hpp), plus 0.1x
-// the RMS error as a tie-breaker; on steps a run that does not reach zero steady-state error
-// (< 5 um over the last 2 s of every step) is rejected. Each gain set is scored by the worse
-// of its double and float runs (robust_cost); the fixed-point build reuses the gains.
+// handicapped. Method: a coarse log-grid over its settings ((kp, ki, kd) for the PID modes;
+// (track_s, offset_tau_s) for the preview controller, its trade-off cool_weight being the
+// user's choice), then coordinate descent with shrinking factors around the best point. Each
+// controller is tuned per test and condition, for an objective (metrics.hpp):
+//  - HeatingOnly (the paper's figure): max |error| while heating + 0.1x the RMS error;
+//  - WholeRun (what the plot shows): whole-run RMS + 0.1x the whole-run max.
+// On steps a run that does not reach zero steady-state error (sse_mm < 5 um) is rejected.
+// Each setting is scored by the worse of its double and float runs (robust_cost); the
+// fixed-point build reuses it.
 #ifndef SMA_HOST_TUNE_HPP
 #define SMA_HOST_TUNE_HPP
 
@@ -30,27 +33,35 @@ Metrics evaluate(RunSetup s, const sma::PidGains& g) {
                                                 : step_metrics(run, s.reference.step_s);
 }
 
-inline double tune_cost(const RunSetup& s, const Metrics& m) {
+enum class Objective { HeatingOnly, WholeRun };
+
+inline const char* objective_name(Objective o) {
+  return o == Objective::WholeRun ? "whole-run RMS + 0.1 max" : "max heating + 0.1 RMS";
+}
+
+inline double tune_cost(const RunSetup& s, const Metrics& m, Objective o = Objective::HeatingOnly) {
   if (s.reference.kind != sma::RefKind::Sine && !(m.sse_mm < 0.005)) return INFINITY;
+  if (o == Objective::WholeRun) return m.rms_mm + 0.1 * m.max_mm;
   return m.max_heat_mm + 0.1 * m.rms_mm;
 }
 
 // The worse of the double and float runs: on this plant a gain set can sit on a knife edge
 // where a rounding difference decides whether the wire overshoots into a minor loop (from
 // which it cannot come back without cooling to T_MSi). Such a set is not a real optimum.
-inline double robust_cost(const RunSetup& s, const sma::PidGains& g, Metrics* m_double) {
+inline double robust_cost(const RunSetup& s, const sma::PidGains& g, Metrics* m_double,
+                          Objective o = Objective::HeatingOnly) {
   const Metrics md = evaluate<double>(s, g);
   if (m_double) *m_double = md;
-  const double cd = tune_cost(s, md);
+  const double cd = tune_cost(s, md, o);
   if (!std::isfinite(cd)) return cd;
-  return fmax(cd, tune_cost(s, evaluate<float>(s, g)));
+  return fmax(cd, tune_cost(s, evaluate<float>(s, g), o));
 }
 
-inline TuneResult tune_pid(const RunSetup& base) {
+inline TuneResult tune_pid(const RunSetup& base, Objective o = Objective::HeatingOnly) {
   TuneResult best;
   auto consider = [&](sma::PidGains g) {
     Metrics m;
-    const double c = robust_cost(base, g, &m);
+    const double c = robust_cost(base, g, &m, o);
     ++best.evaluations;
     if (c < best.cost) {
       best.cost = c;
@@ -81,6 +92,53 @@ inline TuneResult tune_pid(const RunSetup& base) {
           x = x * mul;  // a zero gain stays zero: the grid already chose it
           consider(g);
         }
+      }
+    }
+  }
+  return best;
+}
+
+struct PreviewTuneResult {
+  sma::PreviewConfig config;
+  double cost = INFINITY;
+  Metrics metrics;
+  int evaluations = 0;
+};
+
+// The preview controller's two settings, by the same method: a coarse grid, then coordinate
+// descent with shrinking factors; scored by the worse of double and float.
+inline PreviewTuneResult tune_preview(RunSetup base, Objective o = Objective::WholeRun) {
+  base.mode = sma::Mode::Preview;
+  PreviewTuneResult best;
+  auto consider = [&](sma::PreviewConfig c) {
+    if (c.check()) return;
+    RunSetup s = base;
+    s.preview = c;
+    const std::vector<Sample> rd = run_closed_loop<double>(s), rf = run_closed_loop<float>(s);
+    const bool sine = s.reference.kind == sma::RefKind::Sine;
+    const Metrics md = sine ? sine_metrics(rd, s.reference.sine_period_s) : step_metrics(rd, s.reference.step_s);
+    const Metrics mf = sine ? sine_metrics(rf, s.reference.sine_period_s) : step_metrics(rf, s.reference.step_s);
+    const double cost = fmax(tune_cost(s, md, o), tune_cost(s, mf, o));
+    ++best.evaluations;
+    if (cost < best.cost) {
+      best.cost = cost;
+      best.config = c;
+      best.metrics = md;
+    }
+  };
+  for (double tr : {0.1, 0.2, 0.4, 0.8, 1.6})
+    for (double tau : {0.3, 1.0, 3.0}) {
+      sma::PreviewConfig c = base.preview;
+      c.track_s = tr;
+      c.offset_tau_s = tau;
+      consider(c);
+    }
+  for (double f : {1.4, 1.15}) {
+    for (int axis = 0; axis < 2; ++axis) {
+      for (double mul : {f, 1.0 / f}) {
+        sma::PreviewConfig c = best.config;
+        (axis == 0 ? c.track_s : c.offset_tau_s) *= mul;
+        consider(c);
       }
     }
   }

@@ -17,7 +17,9 @@
 
 namespace sma {
 
-enum class Mode : uint8_t { Off = 0, OpenLoop = 1, Pid = 2, Feedforward = 3, FeedforwardPid = 4 };
+// Preview: the controller of preview.hpp (PreviewController), which needs the future of the
+// reference; Controller itself outputs 0 V in that mode (the board dispatches to the other).
+enum class Mode : uint8_t { Off = 0, OpenLoop = 1, Pid = 2, Feedforward = 3, FeedforwardPid = 4, Preview = 5 };
 
 inline const char* mode_name(Mode m) {
   switch (m) {
@@ -25,6 +27,7 @@ inline const char* mode_name(Mode m) {
     case Mode::Pid: return "pid";
     case Mode::Feedforward: return "ff";
     case Mode::FeedforwardPid: return "ffpid";
+    case Mode::Preview: return "preview";
     default: return "off";
   }
 }

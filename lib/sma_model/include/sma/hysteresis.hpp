@@ -122,6 +122,15 @@ class PhaseCurves {
     return T_MF_ + (L.T_MSi - T_MF_) * cos_ramp_inv(eps * L.inv_top);
   }
 
+  // Eqs 5-6 inverted: the temperature on a loop's rise (T_i down to T_ii) where the fraction
+  // is eps (eps_i..top): cooling through the rise moves the wire UP, a controllable branch.
+  // T_i at or below eps_i, T_ii at or above the top.
+  T rise_temperature(const CoolingLoop<T>& L, T eps) const {
+    if (!(L.rise_rate > T(0)) || !(eps > L.eps_i)) return L.T_i;
+    if (!(eps < L.top)) return L.T_ii;
+    return L.T_i - (eps - L.eps_i) / L.rise_rate;
+  }
+
   T T_AS() const { return T_AS_; }
   T T_AF() const { return T_AF_; }
   T T_MF() const { return T_MF_; }

@@ -1,0 +1,216 @@
+// The optimal-control bound: the best open-loop voltage profile on the model itself, with full
+// knowledge of the plant and of the future reference, for the paper's sine and multi-step, ideal
+// and rig-like (PWM-quantised voltage; noise does not reach an open-loop profile). Printed next
+// to every controller of the tracking benchmark (its JSON, if present).
+//
+// Method: direct shooting. V(t) is piecewise-linear between knots every 0.5 s, clamped to
+// 0..V_max, and the plant (plant.hpp: the library's own thermal and hysteresis boxes) is run
+// forward at 100 Hz. Objective: the one every controller is tuned for (tune.hpp, WholeRun):
+// whole-run RMS + 0.1x whole-run max, on the true position, the sine scored after its first
+// period. The hysteresis makes the objective non-smooth (kinks where a loop opens, flat
+// stages with zero gradient), so no gradients: a coordinate search with step sizes 0.4, 0.2,
+// 0.1, 0.05, 0.02 V, far larger than the kinks' width in V, moving one knot (and, in a second
+// pass, pairs of neighbours together) while the exact objective improves; at most 3 sweeps
+// per step size and width: ~2.5 min of CPU for the four problems. Starts: the voltage
+// profiles of the inverse + PID and of the preview controller (closed loop, ideal), sampled at
+// the knots; the best result is reported. It is a bound within this family of profiles (0.5 s
+// knots), not over all profiles.
+//
+//   bench_optimal_bound [--json FILE] [--tracking JSON]
+#include <chrono>
+#include <cstdlib>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+#include "sma_host/tune.hpp"
+
+using sma_host::Metrics;
+using sma_host::Sample;
+
+namespace {
+constexpr double kKnot = 0.5;
+constexpr double kDt = 0.01;
+
+struct Problem {
+  sma::Reference ref;
+  bool rig_like;
+  double duration;
+};
+
+std::vector<Sample> simulate(const Problem& p, const std::vector<double>& knots) {
+  sma::Params prm;
+  sma::RigOptions rig = p.rig_like ? sma::RigOptions::rig_like() : sma::RigOptions();
+  rig.noise_mm = 0.0;
+  rig.adc_step_mm = 0.0;
+  sma::Plant plant(prm, sma::Effects(), rig);
+  sma::ReferenceGen<double> gen(p.ref);
+  const long n = static_cast<long>(p.duration / kDt + 0.5);
+  std::vector<Sample> out;
+  out.reserve(static_cast<size_t>(n));
+  for (long k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) * kDt;
+    const double x = t / kKnot;
+    size_t i = static_cast<size_t>(x);
+    if (i + 1 >= knots.size()) i = knots.size() - 2;
+    const double w = x - static_cast<double>(i);
+    const double v = sma::clamp(knots[i] + w * (knots[i + 1] - knots[i]), 0.0, 2.0);
+    out.push_back({t, gen.at(t), plant.displacement(), plant.displacement(), plant.applied_voltage(v), 0, 0});
+    plant.step(v, kDt);
+  }
+  return out;
+}
+
+Metrics score(const Problem& p, const std::vector<Sample>& r) {
+  return p.ref.kind == sma::RefKind::Sine ? sma_host::sine_metrics(r, p.ref.sine_period_s)
+                                          : sma_host::step_metrics(r, p.ref.step_s);
+}
+double cost(const Metrics& m) { return m.rms_mm + 0.1 * m.max_mm; }
+
+// A controller's voltage, sampled at the knots (closed loop, ideal).
+std::vector<double> warm_start(const Problem& p, sma::Mode mode, size_t n_knots) {
+  sma_host::RunSetup s;
+  s.mode = mode;
+  s.reference = p.ref;
+  if (mode != sma::Mode::Preview) s.config.gains = sma_host::tune_pid(s, sma_host::Objective::WholeRun).gains;
+  const std::vector<Sample> r = sma_host::run_closed_loop<double>(s);
+  std::vector<double> k(n_knots, 0.0);
+  for (size_t i = 0; i < n_knots; ++i) {
+    // Mean voltage over the knot's half-interval either side.
+    double sum = 0;
+    int n = 0;
+    for (const Sample& x : r)
+      if (x.t >= (static_cast<double>(i) - 0.5) * kKnot && x.t < (static_cast<double>(i) + 0.5) * kKnot) {
+        sum += x.v;
+        ++n;
+      }
+    k[i] = n ? sum / n : 0.0;
+  }
+  return k;
+}
+
+std::vector<double> coordinate_search(const Problem& p, std::vector<double> k, double* best, int* evals) {
+  *best = cost(score(p, simulate(p, k)));
+  for (double h : {0.4, 0.2, 0.1, 0.05, 0.02}) {
+    for (int width = 1; width <= 2; ++width) {
+      bool improved = true;
+      for (int sweep = 0; sweep < 3 && improved; ++sweep) {
+        improved = false;
+        for (size_t i = 0; i + static_cast<size_t>(width) <= k.size(); ++i) {
+          for (double d : {h, -h}) {
+            std::vector<double> trial = k;
+            for (int j = 0; j < width; ++j) trial[i + static_cast<size_t>(j)] = sma::clamp(trial[i + static_cast<size_t>(j)] + d, 0.0, 2.0);
+            const double c = cost(score(p, simulate(p, trial)));
+            ++*evals;
+            if (c < *best - 1e-9) {
+              *best = c;
+              k = trial;
+              improved = true;
+              break;
+            }
+          }
+        }
+      }
+    }
+  }
+  return k;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  const char* json_path = "optimal_bound.json";
+  const char* tracking = "build/bench-results/tracking.json";
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--json") && i + 1 < argc) json_path = argv[++i];
+    else if (!std::strcmp(argv[i], "--tracking") && i + 1 < argc) tracking = argv[++i];
+    else {
+      std::fprintf(stderr, "usage: %s [--json FILE] [--tracking JSON]\n", argv[0]);
+      return 2;
+    }
+  }
+  struct Out {
+    std::string test, condition;
+    Metrics m;
+    double cost, wall;
+    int evals;
+  };
+  std::vector<Out> outs;
+  for (int sine = 1; sine >= 0; --sine)
+    for (int rig = 0; rig < 2; ++rig) {
+      const auto t0 = std::chrono::steady_clock::now();
+      Problem p{sine ? sma::Reference::sine() : sma::Reference::multi_step(), rig == 1, 0};
+      if (sine) p.ref.sine_cycles = 2.0;  // start-up period + one scored period
+      p.duration = p.ref.duration();
+      const size_t n_knots = static_cast<size_t>(p.duration / kKnot) + 2;
+      double best = INFINITY;
+      std::vector<double> best_k;
+      int evals = 0;
+      for (sma::Mode start : {sma::Mode::FeedforwardPid, sma::Mode::Preview}) {
+        double c;
+        std::vector<double> k = coordinate_search(p, warm_start(p, start, n_knots), &c, &evals);
+        if (c < best) {
+          best = c;
+          best_k = k;
+        }
+      }
+      const Metrics m = score(p, simulate(p, best_k));
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      outs.push_back({sine ? "sine" : "multi-step", rig ? "rig-like" : "ideal", m, best, wall, evals});
+      std::fprintf(stderr, "%s %s: cost %.4f (%d evaluations, %.0f s)\n", outs.back().test.c_str(),
+                   outs.back().condition.c_str(), best, evals, wall);
+    }
+
+  // The controllers' rows (double) from the tracking benchmark, if it ran.
+  std::ifstream tj(tracking);
+  std::stringstream buf;
+  buf << tj.rdbuf();
+  const std::string js = buf.str();
+  auto field = [](const std::string& obj, const char* key) {
+    const std::string k = std::string("\"") + key + "\": ";
+    const size_t at = obj.find(k);
+    return at == std::string::npos ? std::string() : obj.substr(at + k.size(), obj.find_first_of(",}", at + k.size()) - at - k.size());
+  };
+  std::printf("Optimal open-loop bound (0.5 s knots, objective whole-run RMS + 0.1 max, true position) "
+              "next to the controllers (double, tuned for the same objective):\n\n");
+  std::printf("| test | condition | controller | max mm | RMS mm | max rise mm | max fall mm | wrong-way mm |\n"
+              "|---|---|---|---|---|---|---|---|\n");
+  for (const Out& o : outs) {
+    std::printf("| %s | %s | **optimal bound** | %.4f | %.4f | %.4f | %.4f | %.4f |\n", o.test.c_str(),
+                o.condition.c_str(), o.m.max_mm, o.m.rms_mm, o.m.max_rise_mm, o.m.max_fall_mm, o.m.wrong_way_mm);
+    size_t pos = 0;
+    while ((pos = js.find("{\"test\"", pos)) != std::string::npos) {
+      const std::string obj = js.substr(pos, js.find('}', pos) - pos + 1);
+      pos += obj.size();
+      if (field(obj, "test") != "\"" + o.test + "\"" || field(obj, "condition") != "\"" + o.condition + "\"" ||
+          field(obj, "scalar") != "\"double\"")
+        continue;
+      auto num = [&](const char* key) { return std::atof(field(obj, key).c_str()); };
+      std::string name = field(obj, "controller");
+      if (name.size() >= 2) name = name.substr(1, name.size() - 2);
+      std::printf("| %s | %s | %s | %.4f | %.4f | %.4f | %.4f | %.4f |\n", o.test.c_str(), o.condition.c_str(),
+                  name.c_str(), num("max_mm"), num("rms_mm"), num("max_rise_mm"), num("max_fall_mm"),
+                  num("wrong_way_mm"));
+    }
+  }
+  FILE* f = std::fopen(json_path, "w");
+  if (!f) {
+    std::perror(json_path);
+    return 1;
+  }
+  std::fprintf(f, "{\n  \"knot_s\": %g,\n  \"objective\": \"whole-run RMS + 0.1 max\",\n  \"bounds\": [\n", kKnot);
+  for (size_t i = 0; i < outs.size(); ++i) {
+    const Out& o = outs[i];
+    std::fprintf(f,
+                 "    {\"test\": \"%s\", \"condition\": \"%s\", \"max_mm\": %.6f, \"rms_mm\": %.6f, "
+                 "\"max_rise_mm\": %.6f, \"max_fall_mm\": %.6f, \"wrong_way_mm\": %.6f, \"cost\": %.6f, "
+                 "\"evaluations\": %d, \"wall_s\": %.1f}%s\n",
+                 o.test.c_str(), o.condition.c_str(), o.m.max_mm, o.m.rms_mm, o.m.max_rise_mm, o.m.max_fall_mm,
+                 o.m.wrong_way_mm, o.cost, o.evals, o.wall, i + 1 < outs.size() ? "," : "");
+  }
+  std::fprintf(f, "  ]\n}\n");
+  std::fclose(f);
+  std::printf("\nwrote %s\n", json_path);
+  return 0;
+}

@@ -1,0 +1,323 @@
+// A controller that uses the known future of the reference (preview / model-predictive).
+//
+// The inverse + PID (controller.hpp) reacts to the reference: it turns from heating to cooling
+// when the reference turns. On this wire that is too late: cooling from a peak T_i first
+// moves the wire UP by the minor-loop rise j_i (eqs 5-6) and then holds it flat down to T_MSi
+// (eqs 7-10), seconds later. The board knows the reference in advance, so this controller
+// plans the branch switch ahead:
+//
+//  - Model wire: the temperature estimate (WireStep, eq 1 with the model's effects, on the
+//    commanded voltage) walks its own Hysteresis: the loop memory (T_i, eps_i, j_i, T_MSi).
+//  - Execution (every tick): on the heating branch the wire is driven to the major-curve
+//    temperature of the reference (eq 15), on the cooling branch to this loop's cooling-curve
+//    temperature (eq 16; T_MSi when the reference is above the loop's top). The heating branch
+//    never lowers the commanded temperature and the cooling branch never raises it (a move
+//    against the branch would open a new loop). The voltage is eq 17 at the model wire with a
+//    first-order pull onto that temperature (track_s), looking track_s ahead in the reference.
+//  - Integral action: the offset d between the measured and the model position is estimated
+//    by a low-pass (offset_tau_s) and subtracted from the reference before inversion, so a
+//    fitted model that is not the plant still reaches every setpoint (offset-free, as in
+//    disturbance-model MPC).
+//  - Planning (spread over ticks, steps_per_tick grid steps per tick): from copies of the model
+//    wire's temperature and hysteresis, it simulates the same branch policy on a coarse grid
+//    (grid_s, exact thermal limits: at most V_max, at least passive cooling) over the horizon,
+//    for a few candidate times of the next branch switch (now, 1, 2, 4, 7 s, or when the
+//    reference turns); the cost is the squared position error, errors while the reference
+//    falls weighted by cool_weight (the one heating/cooling trade-off setting). When
+//    "switch now" wins, the branch switches: heating stops before a peak at the temperature
+//    whose rise carries the wire to the top; heating restarts before a valley.
+//  - After a switch the branch follows the reference: it turns back only once the reference
+//    has moved with it and then turns against it.
+//
+// API for a board: PreviewController<T> c(params, effects, cfg); each tick
+//   V = c.step(ref_now, future, measured)
+// where future(tau_s) returns the reference tau_s seconds ahead (a functor; the board's
+// ReferenceGen at t + tau). No heap, no STL; float, double and sma::Fixed.
+#ifndef SMA_PREVIEW_HPP
+#define SMA_PREVIEW_HPP
+
+#include "effects.hpp"
+#include "hysteresis.hpp"
+#include "mechanics.hpp"
+#include "params.hpp"
+#include "scalar.hpp"
+#include "thermal.hpp"
+
+namespace sma {
+
+struct PreviewConfig {
+  double dt = 0.01;            // tick, s
+  double v_max = 2.0;          // eq 18
+  double horizon_s = 16.0;     // planning horizon: a peak, its rise and flat stage (~7 s)
+  double grid_s = 0.5;         // planning grid (thermal steps are exact at any grid)
+  uint8_t steps_per_tick = 4;  // planning grid steps simulated per tick (cycle budget)
+  double track_s = 0.4;        // pull of the model wire onto the commanded temperature, s
+  double offset_tau_s = 1.0;   // integral action: time constant of the offset estimate, s
+  double cool_weight = 1.0;    // trade-off: weight of errors while the reference falls
+  double deadband_mm = 1e-4;   // a reference turn smaller than this is not a turn
+  double switch_margin_mm = 0.0125;  // a switch must beat waiting by this RMS error over the
+                                     // horizon: small offsets of a fitted model never switch
+
+  const char* check() const {
+    if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
+    if (!(v_max > 0.0 && v_max <= 5.0)) return "v_max must be in 0..5";
+    if (!(grid_s >= dt && grid_s <= 5.0)) return "grid_s must be in dt..5";
+    if (!(horizon_s >= grid_s && horizon_s / grid_s <= 40.0)) return "horizon_s must be in grid_s..40 grid_s";
+    if (!(steps_per_tick >= 1)) return "steps_per_tick must be >= 1";
+    if (!(track_s >= dt && track_s <= 10.0)) return "track_s must be in dt..10";
+    if (!(offset_tau_s > 0.0 && offset_tau_s <= 100.0)) return "offset_tau_s must be in 0..100";
+    if (!(cool_weight >= 0.0 && cool_weight <= 100.0)) return "cool_weight must be in 0..100";
+    if (!(deadband_mm >= 0.0 && deadband_mm < 1.0)) return "deadband_mm must be in 0..1";
+    if (!(switch_margin_mm >= 0.0 && switch_margin_mm < 1.0)) return "switch_margin_mm must be in 0..1";
+    return nullptr;
+  }
+};
+
+template <class T>
+class PreviewController {
+ public:
+  static constexpr uint8_t kMaxGrid = 40;
+  static constexpr uint8_t kCandidates = 7;
+  static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
+
+  PreviewController(const Params& p, const Effects& fx, const PreviewConfig& cfg)
+      : cfg_(cfg),
+        curves_(p),
+        thermal_(p, fx),
+        mech_(p),
+        wire_step_(thermal_, p, cfg.dt, fx),
+        grid_step_(p, cfg.grid_s, fx),
+        est_(curves_, from_double<T>(p.T_amb + fx.ambient_offset_K), T(0)),
+        sim_h_(curves_, from_double<T>(p.T_amb), T(0)),
+        v_max_(from_double<T>(cfg.v_max)),
+        inv_dt_(from_double<T>(1.0 / cfg.dt)),
+        inv_track_(from_double<T>(1.0 / cfg.track_s)),
+        d_alpha_(from_double<T>(1.0 - ::exp(-cfg.dt / cfg.offset_tau_s))),
+        cool_w_(from_double<T>(cfg.cool_weight)),
+        switch_margin_(from_double<T>(100.0 * cfg.switch_margin_mm * cfg.switch_margin_mm *
+                                      (cfg.horizon_s / cfg.grid_s))),
+        deadband_(from_double<T>(cfg.deadband_mm)),
+        n_grid_(static_cast<uint8_t>(cfg.horizon_s / cfg.grid_s + 0.5)),
+        valid_(p.check() == nullptr && fx.check() == nullptr && cfg.check() == nullptr) {
+    // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
+    const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
+    for (uint8_t k = 0; k < kCandidates; ++k) {
+      const double n = sw[k] / cfg.grid_s + 0.5;
+      switch_at_[k] = sw[k] < 0.0 || n >= 254.0 ? kNever : static_cast<uint8_t>(n);
+    }
+    reset(from_double<T>(p.T_amb + fx.ambient_offset_K), T(0));
+  }
+  PreviewController(const PreviewController&) = delete;  // the hysteresis points into curves_
+  PreviewController& operator=(const PreviewController&) = delete;
+
+  bool valid() const { return valid_; }
+
+  // Restart at rest: wire at T0 with fraction eps0 (e.g. from a measurement), heating branch.
+  void reset(T T0, T eps0) {
+    est_.reset(T0, eps0);
+    T_est_ = T0;
+    eps_est_ = est_.eps();
+    deps_ = T(0);
+    d_ = T(0);
+    heating_ = true;
+    moved_with_ = true;
+    ref_extreme_ = mech_.displacement(eps_est_);
+    have_ref_ = false;
+    v_ = T(0);
+    restart_plan();
+  }
+
+  // One tick: reference now, its future (future(tau_s) = reference tau_s ahead) and the
+  // measured displacement -> voltage across the wire, 0..V_max. NaN in gives 0 V.
+  template <class Future>
+  T step(T ref, const Future& future, T measured) {
+    if (!valid_ || !is_finite(ref) || !is_finite(measured)) return hold_off();
+    ref = clamp(ref, T(0), mech_.g);
+    ref_now_ = ref;
+    // Integral action: the offset between the wire and the model wire.
+    d_ = d_ + d_alpha_ * ((measured - mech_.displacement(eps_est_)) - d_);
+    follow_reference(ref);
+    plan(future);
+    // The commanded temperature: this branch's inverse of the reference track_s ahead.
+    T r_lead = future(from_double<T>(cfg_.track_s));
+    if (!is_finite(r_lead)) r_lead = ref;
+    const T T_cmd = branch_temperature(heating_, est_, T_est_, clamp(r_lead, T(0), mech_.g));
+    const T slope = (T_cmd - T_est_) * inv_track_;
+    T v = min(thermal_.voltage_for(T_est_, slope, eps_est_, deps_), v_max_);  // eq 17
+    if (!is_finite(v)) v = T(0);
+    v_ = v;
+    // The model wire follows the commanded voltage.
+    T_est_ = wire_step_(T_est_, v, eps_est_, deps_);
+    const T eps_new = est_.update(T_est_);
+    deps_ = (eps_new - eps_est_) * inv_dt_;
+    eps_est_ = eps_new;
+    return v_;
+  }
+
+  T voltage() const { return v_; }
+  T wire_temperature() const { return T_est_; }
+  T offset() const { return d_; }                 // measured - model position, mm
+  bool heating() const { return heating_; }       // the branch the controller drives
+  const PreviewConfig& config() const { return cfg_; }
+  uint16_t plans() const { return plans_; }       // completed plans (tests, telemetry)
+
+ private:
+  T hold_off() {
+    v_ = T(0);
+    T_est_ = wire_step_(T_est_, T(0), eps_est_, T(0));
+    eps_est_ = est_.update(T_est_);
+    return v_;
+  }
+
+  // The branch follows the reference once it has moved with it: a turn against the branch
+  // (beyond the deadband, from the last extreme) switches it.
+  void follow_reference(T ref) {
+    if (!have_ref_) {
+      ref_extreme_ = ref;
+      ref_prev_ = ref;
+      have_ref_ = true;
+    }
+    if (ref < ref_prev_ - deadband_) falling_ = true;
+    if (ref > ref_prev_ + deadband_) falling_ = false;
+    ref_prev_ = ref;
+    if (heating_ ? ref > ref_extreme_ : ref < ref_extreme_) {
+      if (abs(ref - ref_extreme_) > deadband_) moved_with_ = true;
+      ref_extreme_ = ref;
+    }
+    if (moved_with_ && (heating_ ? ref < ref_extreme_ - deadband_ : ref > ref_extreme_ + deadband_)) {
+      heating_ = !heating_;
+      ref_extreme_ = ref;
+      moved_with_ = true;  // the reference already moves with the new branch
+      restart_plan();
+    }
+  }
+
+  // The temperature the policy drives the wire to on a branch (eq 15 heating, eq 16 cooling on
+  // the loop the hysteresis h would follow), never against the branch, for reference r (mm).
+  T branch_temperature(bool heat, const Hysteresis<T>& h, T Tw, T r) const {
+    const T eps_t = mech_.fraction(r - d_);  // eq 14, with the offset
+    if (heat) return max(Tw, curves_.heat_temperature(eps_t));
+    const CoolingLoop<T> L = h.loop_for_cooling();
+    // Still above the end of the rise and asked to stay or go up: ride the rise (eqs 5-6).
+    if (Tw > L.T_ii && !(eps_t < h.eps())) return min(Tw, curves_.rise_temperature(L, eps_t));
+    return min(Tw, curves_.cool_temperature(L, eps_t));
+  }
+
+  void restart_plan() {
+    cand_ = 0;
+    j_ = 0;
+    elapsed_ticks_ = 0;
+    best_cost_ = T(-1);
+    best_ = kNever;
+    start_sim();
+  }
+  void start_sim() {
+    sim_T_ = T_est_;
+    sim_h_ = est_;
+    sim_heat_ = heating_;
+    sim_moved_ = moved_with_;
+    sim_ext_ = ref_extreme_;
+    sim_fall_ = falling_;
+    cost_ = T(0);
+  }
+
+  // Advance the plan by steps_per_tick grid steps; decide when every candidate is scored.
+  template <class Future>
+  void plan(const Future& future) {
+    ++elapsed_ticks_;
+    for (uint8_t s = 0; s < cfg_.steps_per_tick; ++s) {
+      if (j_ >= n_grid_) {
+        // Ties keep the later switch; and switching at all (any timed candidate) must beat
+        // following the reference by the margin: a switch that buys little is not made
+        // (e.g. heating a wire on a flat stage, which moves nothing yet).
+        if (switch_at_[cand_] == kNever) natural_cost_ = cost_;
+        if (best_cost_ < T(0) || cost_ < best_cost_) {
+          best_cost_ = cost_;
+          best_ = switch_at_[cand_];
+        }
+        if (++cand_ >= kCandidates) {
+          ++plans_;
+          if (best_ == 0 && best_cost_ < natural_cost_ - switch_margin_) {  // switch now
+            heating_ = !heating_;
+            moved_with_ = false;
+            ref_extreme_ = ref_now_;
+          }
+          restart_plan();
+          return;
+        }
+        j_ = 0;
+        start_sim();
+      }
+      sim_step(future);
+    }
+  }
+
+  // One grid step of candidate cand_ (switch at grid index switch_at_[cand_]).
+  template <class Future>
+  void sim_step(const Future& future) {
+    if (cand_ == 0) {  // the first candidate samples the future reference for all of them
+      const double tau = (j_ + 1) * cfg_.grid_s - elapsed_ticks_ * cfg_.dt;
+      const T r = future(from_double<T>(tau > 0.0 ? tau : 0.0));
+      r_[j_] = is_finite(r) ? clamp(r, T(0), mech_.g) : (j_ ? r_[j_ - 1] : T(0));
+    }
+    const T r = r_[j_];
+    if (j_ == switch_at_[cand_] && sim_heat_ == heating_) {
+      sim_heat_ = !sim_heat_;
+      sim_moved_ = false;
+      sim_ext_ = r;
+    } else {
+      if (sim_heat_ ? r > sim_ext_ : r < sim_ext_) {
+        if (abs(r - sim_ext_) > deadband_) sim_moved_ = true;
+        sim_ext_ = r;
+      }
+      if (sim_moved_ && (sim_heat_ ? r < sim_ext_ - deadband_ : r > sim_ext_ + deadband_)) {
+        sim_heat_ = !sim_heat_;
+        sim_ext_ = r;
+      }
+    }
+    const T target = branch_temperature(sim_heat_, sim_h_, sim_T_, r);
+    // Exact limits of eq 1 over one grid step: full power, or none.
+    const T hi = grid_step_(sim_T_, v_max_);
+    const T lo = grid_step_(sim_T_, T(0));
+    sim_T_ = clamp(target, lo, hi);
+    // Error in 0.1 mm (Q16.16 keeps its square); e^2 (1 + e^2): errors past 0.1 mm weigh more,
+    // so the plan trades a long small error for a short large one the way the max metric does.
+    const T e = T(10) * (mech_.displacement(sim_h_.update(sim_T_)) + d_ - r);
+    const T e2 = e * e;
+    const T r_before = j_ ? r_[j_ - 1] : ref_now_;
+    if (r < r_before - deadband_) sim_fall_ = true;
+    if (r > r_before + deadband_) sim_fall_ = false;
+    cost_ = cost_ + (sim_fall_ ? cool_w_ : T(1)) * e2 * (T(1) + e2);
+    ++j_;
+  }
+
+  PreviewConfig cfg_;
+  PhaseCurves<T> curves_;
+  Thermal<T> thermal_;
+  Mechanics<T> mech_;
+  WireStep<T> wire_step_;
+  ThermalStep<T> grid_step_;
+  Hysteresis<T> est_;    // loop memory of the model wire
+  Hysteresis<T> sim_h_;  // its copy, walked by the plan
+  T v_max_, inv_dt_, inv_track_, d_alpha_, cool_w_;
+  T switch_margin_;  // cost units: (0.1 mm)^2 grid steps
+  T deadband_;
+  uint8_t n_grid_;
+  bool valid_;
+  uint8_t switch_at_[kCandidates];
+  // Model wire.
+  T T_est_ = T(22), eps_est_ = T(0), deps_ = T(0), d_ = T(0), v_ = T(0);
+  bool heating_ = true, moved_with_ = true, have_ref_ = false;
+  bool falling_ = false;  // the reference's last move was down (the trade-off weight applies)
+  T ref_extreme_ = T(0), ref_prev_ = T(0), ref_now_ = T(0);
+  // Plan in progress.
+  T r_[kMaxGrid];
+  uint8_t cand_ = 0, j_ = 0, best_ = kNever;
+  uint16_t elapsed_ticks_ = 0, plans_ = 0;
+  T best_cost_ = T(-1), natural_cost_ = T(0), cost_ = T(0), sim_T_ = T(22), sim_ext_ = T(0);
+  bool sim_heat_ = true, sim_moved_ = true, sim_fall_ = false;
+};
+
+}  // namespace sma
+
+#endif  // SMA_PREVIEW_HPP

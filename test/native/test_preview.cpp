@@ -1,0 +1,102 @@
+// The preview controller (preview.hpp) in closed loop on the simulated plant: the targets of
+// the issue "use the known future", on whole-run metrics (metrics.hpp, true position).
+#include <gtest/gtest.h>
+#include "sma/console.hpp"
+#include "sma/fixed.hpp"
+#include "sma_host/metrics.hpp"
+
+namespace {
+using sma_host::Condition;
+using sma_host::Metrics;
+using sma_host::RunSetup;
+
+RunSetup preview_setup(bool sine, bool rig_like) {
+  RunSetup s;
+  s.mode = sma::Mode::Preview;
+  s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
+  s.condition = rig_like ? Condition::rig_like() : Condition::ideal();
+  return s;
+}
+
+template <class T>
+Metrics run(const RunSetup& s, std::vector<sma_host::Sample>* out = nullptr) {
+  const std::vector<sma_host::Sample> r = sma_host::run_closed_loop<T>(s);
+  if (out) *out = r;
+  return s.reference.kind == sma::RefKind::Sine ? sma_host::sine_metrics(r, s.reference.sine_period_s)
+                                                : sma_host::step_metrics(r, s.reference.step_s);
+}
+
+// Sine 0.2-0.7 mm, rig-like, in the firmware's float: the whole period after the first,
+// rising and falling alike (the issue's targets: max <= 0.12 mm, RMS <= 0.05 mm; inverse + PID
+// has ~0.24 mm while the reference falls).
+TEST(Preview, SineWholePeriodRigLike) {
+  const Metrics m = run<float>(preview_setup(true, true));
+  EXPECT_LE(m.max_mm, 0.12);
+  EXPECT_LE(m.rms_mm, 0.05);
+  EXPECT_LE(m.max_fall_mm, 0.12);
+}
+
+// Multi-step, rig-like: whole-run RMS <= 0.05 mm and below PID alone's (the firmware's
+// default PID gains), no wrong-way move after a down-step beyond 0.03 mm, zero SSE.
+TEST(Preview, MultiStepRigLike) {
+  const Metrics m = run<float>(preview_setup(false, true));
+  RunSetup pid = preview_setup(false, true);
+  pid.mode = sma::Mode::Pid;
+  pid.config.gains = sma::console::default_gains(sma::Mode::Pid);
+  const Metrics mp = run<float>(pid);
+  EXPECT_LE(m.rms_mm, 0.05);
+  EXPECT_LT(m.rms_mm, mp.rms_mm);
+  EXPECT_LE(m.wrong_way_mm, 0.03);
+  EXPECT_LT(m.sse_mm, 0.005);
+}
+
+// Zero steady-state error with the exact model (the offset estimate is the integral action;
+// with a fitted model that is not the plant see docs/control.md: not yet met).
+TEST(Preview, ZeroSteadyStateErrorExactModel) {
+  const Metrics m = run<float>(preview_setup(false, false));
+  EXPECT_LT(m.sse_mm, 0.005);
+}
+
+// A wire with latent heat, and the exact model of it on the board: no up-step overshoots its
+// setpoint by more than 0.01 mm in its first 10 s (later in a step the controller may leave the
+// setpoint on purpose, to take the next step from the flat side of a minor loop).
+TEST(Preview, NoOvershootWithExactLatentHeatModel) {
+  RunSetup s = preview_setup(false, true);
+  s.plant_effects.latent_heat_J = 1.0;
+  s.model_effects = s.plant_effects;
+  std::vector<sma_host::Sample> r;
+  const Metrics m = run<float>(s, &r);
+  double over = 0, prev = 0, cur = r.front().ref;
+  for (const sma_host::Sample& x : r) {
+    if (x.ref != cur) {
+      prev = cur;
+      cur = x.ref;
+    }
+    if (cur > prev && fmod(x.t, s.reference.step_s) < 10.0) over = fmax(over, x.truth - x.ref);
+  }
+  EXPECT_LE(over, 0.01);
+  EXPECT_LT(m.sse_mm, 0.005);
+}
+
+// Float tracks like double; Q16.16 runs the same plan without blowing up (it is still
+// behind float on the sine: docs/control.md, open points).
+TEST(Preview, FixedAndFloatTrackLikeDouble) {
+  for (bool sine : {true, false}) {
+    const RunSetup s = preview_setup(sine, false);
+    const Metrics md = run<double>(s), mf = run<float>(s), mx = run<sma::Fixed>(s);
+    EXPECT_NEAR(mf.rms_mm, md.rms_mm, 0.005) << sine;
+    EXPECT_LT(mx.rms_mm, 0.1) << sine;
+  }
+}
+
+// NaN in: heater off.
+TEST(Preview, NanGivesZeroVolts) {
+  const sma::Params p;
+  sma::PreviewController<float> c(p, sma::Effects(), sma::PreviewConfig());
+  auto future = [](float) { return 0.5f; };
+  EXPECT_GT(c.step(0.5f, future, 0.0f), 0.0f);
+  EXPECT_EQ(c.step(NAN, future, 0.0f), 0.0f);
+  EXPECT_EQ(c.step(0.5f, future, NAN), 0.0f);
+}
+
+}  // namespace
