@@ -12,6 +12,7 @@
 #include <iostream>
 #include <sstream>
 #include "sma_host/discrepancy.hpp"
+#include "sma_host/residual_analysis.hpp"
 #include "sma_host/residuals.hpp"
 #include "sma_tools/cli.hpp"
 #include "sma_tools/json.hpp"
@@ -122,7 +123,7 @@ int run(int argc, char** argv) {
   }
   if (vmax - vmin < 0.05) throw Error(log_path + ": the voltage never changes (no excitation to learn from)");
 
-  sma_host::RigLog log{file.t, file.v, file.d};
+  const sma_host::RigLog& log = file;
   std::cerr << "discrepancy: " << log.size() << " samples, " << number(file.duration()) << " s\n";
   const sma_host::Diagnosis d = sma_host::diagnose(
       model.p, log, opt,
@@ -155,6 +156,14 @@ int run(int argc, char** argv) {
   const sma::Effects final_fx = sma_host::effects_of(d.effects);
   const sma_host::Trace nominal = sma_host::trace(model.p, model.fx, log);
   const sma_host::Trace corrected = sma_host::trace(d.params, final_fx, log);
+  // What is left after the last round, against the model's states (residual_analysis.hpp).
+  std::vector<double> left(log.size());
+  for (size_t k = 0; k < log.size(); ++k) left[k] = log.d[k] - corrected.d[k];
+  const sma_host::ResidualAnalysis ra = sma_host::analyse_residual(log, corrected, left);
+  // No candidate credible: the gap stays well above the noise, and the last round added nothing
+  // (every candidate too small a gain, or at a bound).
+  const bool unexplained = d.rms_final > 3 * d.noise_mm;
+  const bool none_credible = unexplained && !d.rejected.empty();
 
   // report.json: the contract's keys first, then what the human report and plots use.
   std::ostringstream j;
@@ -186,7 +195,18 @@ int run(int argc, char** argv) {
       << ", \"rms_mm_heldout\": " << number(d.rejected[k].rms_test) << "}";
   j << "],\n  \"pruned\": [";
   for (size_t k = 0; k < d.pruned.size(); ++k) j << (k ? ", " : "") << quote(d.pruned[k]);
-  j << "],\n  \"warnings\": [";
+  j << "],\n  \"residual_analysis\": {\"rms_mm\": " << number(ra.rms_mm) << ", \"follows\": " << quote(ra.follows)
+    << ", \"no_credible_candidate\": " << (none_credible ? "true" : "false") << ", \"at_bound\": [";
+  for (size_t k = 0; k < d.at_bound.size(); ++k) j << (k ? ", " : "") << quote(d.at_bound[k]);
+  j << "], \"states\": [";
+  for (size_t k = 0; k < ra.states.size(); ++k) {
+    const sma_host::StateFit& sf = ra.states[k];
+    j << (k ? "," : "") << "\n      {\"state\": " << quote(sf.state) << ", \"unit\": " << quote(sf.unit)
+      << ", \"r2_linear\": " << number(sf.r2_linear) << ", \"r2_binned\": " << number(sf.r2_binned)
+      << ", \"slope_mm_per_unit\": " << number(sf.slope) << ", \"bin_state\": " << list_json(sf.bin_x)
+      << ", \"bin_mean_mm\": " << list_json(sf.bin_mean) << "}";
+  }
+  j << "]},\n  \"warnings\": [";
   for (size_t i = 0; i < warnings.size(); ++i) j << (i ? ", " : "") << quote(warnings[i]);
   j << "]\n}\n";
   write_file(out + "/report.json", j.str());
@@ -280,6 +300,27 @@ int run(int argc, char** argv) {
     md << "\n";
   }
   for (const std::string& w : warnings) md << "\n**Warning:** " << w << ".\n";
+  md << "\n## What the residual follows\n\n";
+  if (none_credible)
+    md << "**No candidate of the vocabulary is credible on this log**: the gap left (" << num(d.rms_final)
+       << " mm) is " << num(d.rms_final / d.noise_mm) << "x the noise, and "
+       << (d.at_bound.empty() ? std::string("no candidate shrinks it enough")
+                              : "the candidates that would shrink it end at a bound of their range (not added)")
+       << ". The model lacks something; the residual against the model's states shows where:\n\n";
+  else
+    md << "The residual left after the last round (RMS " << num(ra.rms_mm) << " mm) against the model's states:\n\n";
+  md << "| state | R^2 (binned means) | R^2 (straight line) | slope, mm per unit |\n|---|---|---|---|\n";
+  for (const sma_host::StateFit& sf : ra.states)
+    md << "| " << sf.state << " (" << sf.unit << ") | " << num(sf.r2_binned) << " | " << num(sf.r2_linear) << " | "
+       << num(sf.slope) << " |\n";
+  md << "\n" << (ra.follows.empty() ? std::string("The residual follows none of these states clearly (best R^2 < 0.3).")
+                                    : "The residual follows **" + ra.follows + "** most (plot: `residual_states.png`).")
+     << "\n";
+  if (!d.at_bound.empty()) {
+    md << "\nNot added, at a bound of their range (stand-ins, not measurements):";
+    for (const std::string& n : d.at_bound) md << " `" << n << "`";
+    md << ".\n";
+  }
   md << "\n## Where the gap lives (residual RMS, mm)\n\n| regime | share of log | paper's model | corrected |\n|---|---|---|---|\n";
   for (size_t i = 0; i < reg0.size(); ++i)
     md << "| " << reg0[i].regime << " | " << num(100 * reg0[i].share) << " % | " << num(reg0[i].rms_mm) << " | "

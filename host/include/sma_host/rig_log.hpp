@@ -3,9 +3,10 @@
 // field, text where a number belongs, NaN/inf, or a time that does not increase is reported with
 // its line number and dropped; a file with more bad rows than allowed is refused. Nothing is
 // ever silently misread.
-#ifndef SMA_TOOLS_RIG_LOG_HPP
-#define SMA_TOOLS_RIG_LOG_HPP
+#ifndef SMA_HOST_RIG_LOG_HPP
+#define SMA_HOST_RIG_LOG_HPP
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -15,7 +16,7 @@
 #include <vector>
 #include "error.hpp"
 
-namespace sma_tools {
+namespace sma_host {
 
 struct RigLog {
   std::string name;                   // file name, for messages
@@ -32,6 +33,14 @@ struct RigLog {
   bool has_f() const { return !f.empty(); }
   size_t size() const { return t.size(); }
   double duration() const { return t.empty() ? 0.0 : t.back() - t.front(); }
+  // Median sampling period (robust to a few dropped rows), s.
+  double sample_period() const {
+    std::vector<double> dt;
+    for (size_t k = 1; k < t.size(); ++k) dt.push_back(t[k] - t[k - 1]);
+    if (dt.empty()) return 0.0;
+    std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
+    return dt[dt.size() / 2];
+  }
 };
 
 struct LogReadOptions {
@@ -205,6 +214,6 @@ inline std::string dropped_note(const RigLog& log, size_t keep = 5) {
          std::to_string(log.rows_read) + ":" + describe_problems(log, keep);
 }
 
-}  // namespace sma_tools
+}  // namespace sma_host
 
-#endif  // SMA_TOOLS_RIG_LOG_HPP
+#endif  // SMA_HOST_RIG_LOG_HPP

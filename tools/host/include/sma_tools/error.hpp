@@ -1,0 +1,11 @@
+// The host tools' exception type is the engine's (sma_host/error.hpp).
+#ifndef SMA_TOOLS_ERROR_HPP
+#define SMA_TOOLS_ERROR_HPP
+
+#include "sma_host/error.hpp"
+
+namespace sma_tools {
+using sma_host::Error;
+}  // namespace sma_tools
+
+#endif  // SMA_TOOLS_ERROR_HPP
