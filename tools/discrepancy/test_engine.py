@@ -108,6 +108,30 @@ def main():
     for r in fit["runs"]:
         for k in ("rms_mm", "rms_mm_heating", "rms_mm_cooling"):
             assert r[k] < 0.004, (r, k)
+    # The discrepancy on the same two runs: one wire, a zero per run, the other run predicted.
+    do = os.path.join(tmp, "disc_multi")
+    ok(DISC, log, moved, "--params", params, "--out", do, "--no-plots", "--validate", moved)
+    with open(os.path.join(do, "report.json")) as f:
+        rep = json.load(f)
+    assert rep["effects"] == [], rep["effects"]
+    runs = {(r["log"], r["role"]): r for r in rep["runs"]}
+    assert abs(runs[(moved, "training")]["offset_mm"] - runs[(log, "training")]["offset_mm"] - 0.4) < 0.01, runs
+    assert abs(runs[(moved, "validation")]["offset_mm"] - 1.1) < 0.01, runs
+    for r in rep["runs"]:
+        assert r["rms_mm"] < 0.004, r
+    fails_with([DISC, log, half, "--params", params, "--out", os.path.join(tmp, "f6")], "half_rate.csv", "sample rate")
+
+    # A residual outside the vocabulary: the sensor reads 0.05 mm less per 10 K of wire
+    # temperature (a frame that expands). Whatever is added, what is left follows T.
+    exp = os.path.join(tmp, "expanding.csv")
+    write_log(exp, [{"t_s": float(r["t_s"]), "v_V": float(r["v_V"]),
+                     "d_mm": float(r["d_mm"]) - 0.005 * (float(r["T_true_C"]) - 22.0)} for r in rows])
+    de = os.path.join(tmp, "disc_exp")
+    ok(DISC, exp, "--params", params, "--out", de, "--no-plots")
+    with open(os.path.join(de, "report.json")) as f:
+        ra = json.load(f)["residual_analysis"]
+    assert [s["state"] for s in ra["states"]][:1] == ["T"] or ra["rms_mm"] < 0.004, ra
+    assert len(ra["states"]) == 6 and all(0 <= s["r2_binned"] <= 1 for s in ra["states"]), ra
     print("engine: all passed")
 
 

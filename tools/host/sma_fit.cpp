@@ -351,6 +351,8 @@ int run(int argc, char** argv) {
   if (out_dir.empty()) throw Error("--out DIR is required");
   if (eps0 != -1.0 && !(eps0 >= 0.0 && eps0 <= 1.0)) throw Error("--eps0 must be in 0..1");
 
+  // The start model: the params file (default: the paper's Table II). Start values estimated from
+  // the logs themselves plug in here, as a function (logs, Model) -> Model.
   Model start = read_model(params_path);
   const std::string start_name = params_path.empty() ? "the paper's Table II" : params_path;
   std::vector<RigLog> logs;

@@ -19,7 +19,9 @@
 #include <string.h>
 #include <Eigen/Dense>
 #include <algorithm>
+#include <atomic>
 #include <string>
+#include <thread>
 #include <unsupported/Eigen/NonLinearOptimization>
 #include <unsupported/Eigen/NumericalDiff>
 #include <vector>
@@ -172,6 +174,7 @@ struct Options {
   double ambiguity = 0.05;  // runner-ups within this fraction of the winner's RMS are look-alikes
   int max_effects = 3;
   int max_residuals = 6000; // residuals per fit (the log is strided down to this)
+  int threads = 2;          // candidates fitted at once
   // Base parameters refitted jointly with every candidate (names of refittable_base()); empty:
   // the base model stays as given and only the effects are fitted.
   std::vector<const BaseSpec*> refit_base;
@@ -362,6 +365,19 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
   return out;
 }
 
+// Runs job(0..n-1) on up to `threads` threads (each job independent).
+template <class Job>
+void in_parallel(size_t n, int threads, Job job) {
+  std::atomic<size_t> next(0);
+  auto worker = [&]() {
+    for (size_t i = next++; i < n; i = next++) job(i);
+  };
+  std::vector<std::thread> pool;
+  for (int k = 1; k < threads && static_cast<size_t>(k) < n; ++k) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+}
+
 // ---- selection -----------------------------------------------------------------------------
 
 struct CandidateScore {
@@ -477,11 +493,17 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
   while (static_cast<int>(current.effects.size()) < o.max_effects) {
     if (current.rms_test < 1.15 * d.noise_mm) break;  // nothing left above the noise
     std::vector<CandidateScore> scores;
+    std::vector<const EffectSpec*> todo;
     for (const EffectSpec& spec : vocabulary()) {
       bool have = std::find(idle.begin(), idle.end(), &spec) != idle.end();
       for (const FittedEffect& e : current.effects) have = have || e.spec == &spec;
-      if (have) continue;
-      progress(spec.name);
+      if (!have) todo.push_back(&spec);
+    }
+    for (const EffectSpec* spec : todo) progress(spec->name);
+    // The candidates are independent fits: o.threads of them at a time.
+    std::vector<CandidateScore> found(todo.size());
+    in_parallel(todo.size(), o.threads, [&](size_t c) {
+      const EffectSpec& spec = *todo[c];
       FitOutcome best;
       // Starts: the spec's values from two bases, the last round's (current.params) and the given
       // one (p): the base refit can land in another basin than the given fit's, and the effect's
@@ -510,8 +532,9 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
           if (f.rms_test < best.rms_test) best = f;
         }
       }
-      scores.push_back({spec.name, best.rms_test, best});
-    }
+      found[c] = {spec.name, best.rms_test, best};
+    });
+    scores = found;
     std::sort(scores.begin(), scores.end(),
               [](const CandidateScore& a, const CandidateScore& b) { return a.rms_test < b.rms_test; });
     if (scores.empty()) break;

@@ -58,6 +58,15 @@ inline void reset_to_initial_state(sma::Plant& plant, const Model& m, double eps
   }
 }
 
+// ---- per-run sensor offset -----------------------------------------------------------------
+// The least-squares sensor zero of one run for a model: mean(measured - model). A potentiometer's
+// zero moves between runs; this is the offset "fitted alone" on a run the model was not fitted on.
+inline double best_offset(const std::vector<double>& measured, const std::vector<double>& model) {
+  double s = 0.0;
+  for (size_t k = 0; k < measured.size(); ++k) s += measured[k] - model[k];
+  return measured.empty() ? 0.0 : s / static_cast<double>(measured.size());
+}
+
 struct ReplayOptions {
   sma::RigOptions rig;  // noise etc.; v_supply is raised to the log's largest V (no clamping)
   bool noisy = false;   // measure() (noise, ADC step) instead of measure_clean()
@@ -104,10 +113,70 @@ inline void replay(const Model& m, const std::vector<double>& t, const std::vect
   });
 }
 
+// A log of several runs (concatenate below): each run is replayed on its own. The first starts
+// by the rule above; each later run starts at rest at the ambient temperature (fraction 0) and
+// reads through its own sensor zero: the model's output on it is shifted by the least-squares
+// offset of that run (a potentiometer's zero moves between runs).
 inline Trace replay(const Model& m, const RigLog& log, const ReplayOptions& o = ReplayOptions()) {
   Trace tr;
-  replay(m, log.t, log.v, log.d, o, tr);
+  if (log.run_starts.empty()) {
+    replay(m, log.t, log.v, log.d, o, tr);
+    return tr;
+  }
+  const size_t stride = o.stride ? o.stride : 1;
+  std::vector<size_t> bounds = {0};
+  for (size_t s : log.run_starts) bounds.push_back(s);
+  bounds.push_back(log.size());
+  for (size_t r = 0; r + 1 < bounds.size(); ++r) {
+    const size_t a = bounds[r], b = bounds[r + 1];
+    ReplayOptions ro = o;
+    ro.stride = 1;
+    if (r > 0) ro.eps0 = 0.0;
+    Trace part;
+    const std::vector<double> t(log.t.begin() + static_cast<long>(a), log.t.begin() + static_cast<long>(b));
+    const std::vector<double> v(log.v.begin() + static_cast<long>(a), log.v.begin() + static_cast<long>(b));
+    const std::vector<double> d(log.d.begin() + static_cast<long>(a), log.d.begin() + static_cast<long>(b));
+    replay(m, t, v, d, ro, part);
+    if (r > 0) {
+      const double c = best_offset(d, part.d);
+      for (double& y : part.d) y += c;
+    }
+    for (size_t k = a; k < b; ++k) {
+      if (k % stride) continue;
+      tr.d.push_back(part.d[k - a]);
+      if (o.want_states) {
+        tr.D.push_back(part.D[k - a]);
+        tr.T.push_back(part.T[k - a]);
+        tr.eps.push_back(part.eps[k - a]);
+      }
+    }
+  }
   return tr;
+}
+
+// Several runs of one rig as one log: times shifted so they keep increasing (one sample period
+// between runs), run_starts marking where each later run begins.
+inline RigLog concatenate(const std::vector<const RigLog*>& logs) {
+  RigLog all;
+  if (logs.empty()) return all;
+  all.name = logs[0]->name;
+  all.columns = logs[0]->columns;
+  for (const RigLog* l : logs) {
+    const double shift = all.t.empty() ? 0.0 : all.t.back() + l->sample_period() - l->t.front();
+    if (!all.t.empty()) {
+      all.run_starts.push_back(all.t.size());
+      all.name += "+" + l->name;
+    }
+    all.run_names.push_back(l->name);
+    for (size_t k = 0; k < l->size(); ++k) {
+      all.t.push_back(l->t[k] + shift);
+      all.v.push_back(l->v[k]);
+      all.d.push_back(l->d[k]);
+    }
+    all.rows_read += l->rows_read;
+    all.dropped += l->dropped;
+  }
+  return all;
 }
 
 // ---- noise ---------------------------------------------------------------------------------
@@ -121,15 +190,6 @@ inline double noise_level(const std::vector<double>& d) {
   return dd[dd.size() / 2] / (0.6745 * sqrt(6.0));
 }
 inline double noise_level(const RigLog& log) { return noise_level(log.d); }
-
-// ---- per-run sensor offset -----------------------------------------------------------------
-// The least-squares sensor zero of one run for a model: mean(measured - model). A potentiometer's
-// zero moves between runs; this is the offset "fitted alone" on a run the model was not fitted on.
-inline double best_offset(const std::vector<double>& measured, const std::vector<double>& model) {
-  double s = 0.0;
-  for (size_t k = 0; k < measured.size(); ++k) s += measured[k] - model[k];
-  return measured.empty() ? 0.0 : s / static_cast<double>(measured.size());
-}
 
 // ---- error statistics: whole run, heating and cooling halves ---------------------------------
 struct ErrorStats {

@@ -28,6 +28,10 @@ struct RigLog {
   long rows_read = 0;                 // data rows seen
   long dropped = 0;                   // bad rows dropped
   std::vector<std::string> problems;  // "name:line: problem" of the first bad rows
+  // Several runs joined into one (identify.hpp: concatenate): the rows where runs 2.. start,
+  // and each run's file name. Empty: one run.
+  std::vector<size_t> run_starts;
+  std::vector<std::string> run_names;
   bool has_ref() const { return !ref.empty(); }
   bool has_duty() const { return !duty.empty(); }
   bool has_f() const { return !f.empty(); }

@@ -57,11 +57,11 @@ def cmd_discrepancy(rest):
 
 
 def cmd_fit(args):
-    cmd = [_tool("sma_fit"), args.log, "--out", args.out]
+    cmd = [_tool("sma_fit")] + args.log + ["--out", args.out]
     if args.params:
         cmd += ["--params", args.params]
     if args.validate:
-        cmd += ["--validate", args.validate]
+        cmd += ["--validate"] + args.validate
     for opt in ("fit", "fix", "max_points", "max_evals", "eps0", "max_bad"):
         v = getattr(args, opt)
         if v is not None:
@@ -123,10 +123,12 @@ def make_parser():
                        description="Fits T_AS, T_AF, T_MF, q, e, T_MSs, T_MSf, the loops' j and T_ii, "
                                    "h, g and the sensor offset to a training log with Levenberg-Marquardt; "
                                    "writes DIR/params.json, fit.json, report.md and PNG plots.")
-    f.add_argument("log", help="training rig log (t_s,v_V,d_mm,...)")
+    f.add_argument("log", nargs="+", help="training rig log(s) (t_s,v_V,d_mm,...); several: one wire, "
+                                          "a sensor zero per run")
     f.add_argument("--out", required=True, help="output directory")
     f.add_argument("--params", help="start values / fixed parameters (JSON); default: the paper's")
-    f.add_argument("--validate", help="a second log, not used for the fit")
+    f.add_argument("--validate", nargs="+", help="logs not used for the fit: predicted with their own "
+                                                 "sensor zero (table of RMS/max, heating and cooling)")
     f.add_argument("--fit", help="comma list of parameters to fit (see sma_fit --help)")
     f.add_argument("--fix", help="comma list of parameters to keep at their start value")
     f.add_argument("--max-points", type=int, help="residual samples used (default 6000)")

@@ -2,7 +2,8 @@
 #ifndef SMA_TOOLS_ERROR_HPP
 #define SMA_TOOLS_ERROR_HPP
 
-#include "sma_host/error.hpp"
+// Relative: the vrig and fuzz targets compile the readers with only this include directory.
+#include "../../../../host/include/sma_host/error.hpp"
 
 namespace sma_tools {
 using sma_host::Error;

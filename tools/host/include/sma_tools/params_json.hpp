@@ -16,7 +16,7 @@
 #include "json.hpp"
 #include "sma/effects.hpp"
 #include "sma/params.hpp"
-#include "sma_host/model.hpp"
+#include "../../../../host/include/sma_host/model.hpp"  // relative: see error.hpp
 
 namespace sma_tools {
 

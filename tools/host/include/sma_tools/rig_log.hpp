@@ -3,7 +3,7 @@
 #define SMA_TOOLS_RIG_LOG_HPP
 
 #include "error.hpp"
-#include "sma_host/rig_log.hpp"
+#include "../../../../host/include/sma_host/rig_log.hpp"  // relative: see error.hpp
 
 namespace sma_tools {
 using sma_host::RigLog;
