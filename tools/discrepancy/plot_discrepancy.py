@@ -90,7 +90,7 @@ def main(out: str) -> int:
             a.set_ylabel("mean residual, mm")
             a.set_title(f"R² binned {st['r2_binned']:.2f}, line {st['r2_linear']:.2f}", fontsize=9)
             a.grid(alpha=0.3)
-        head = "no candidate credible: " if ra.get("no_credible_candidate") else ""
+        head = "the vocabulary does not explain this log: " if ra.get("no_credible_candidate") else ""
         fig.suptitle(f"{head}residual left (RMS {ra['rms_mm']:.4f} mm) against the model's states"
                      + (f"; follows {ra['follows']}" if ra["follows"] else ""))
         fig.tight_layout()

@@ -7,6 +7,7 @@
 // plot_discrepancy.py. Exit code: 0 done, 1 bad input (message names file, line, problem).
 #include <sys/stat.h>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -58,6 +59,7 @@ std::string params_json(const sma_host::FittedEffect& e, bool ci) {
 
 // Four significant digits for people (the JSON keeps full precision).
 std::string num(double x) {
+  if (std::isnan(x)) return "-";
   char b[32];
   std::snprintf(b, sizeof b, "%.4g", x);
   return b;
@@ -378,8 +380,9 @@ int run(int argc, char** argv) {
        << num(r.e.cooling.rms) << " | " << num(r.e.cooling.max) << " |\n";
   md << "\n## What the residual follows\n\n";
   if (none_credible)
-    md << "**No candidate of the vocabulary is credible on this log**: the gap left (" << num(d.rms_final)
-       << " mm) is " << num(d.rms_final / d.noise_mm) << "x the noise, and "
+    md << "**The vocabulary does not explain this log**: " << (d.steps.empty() ? "" : "after the effects above, ")
+       << "the gap left (" << num(d.rms_final) << " mm) is " << num(d.rms_final / d.noise_mm)
+       << "x the noise, no further candidate is credible, and "
        << (d.at_bound.empty() ? std::string("no candidate shrinks it enough")
                               : "the candidates that would shrink it end at a bound of their range (not added)")
        << ". The model lacks something; the residual against the model's states shows where:\n\n";

@@ -253,6 +253,7 @@ double percentile(std::vector<double> v, double p) {
 }
 
 std::string fmt(double x, int prec = 4) {
+  if (std::isnan(x)) return "-";
   if (!std::isfinite(x)) return "inf";
   char buf[48];
   std::snprintf(buf, sizeof buf, "%.*g", prec, x);
@@ -470,19 +471,14 @@ int run(int argc, char** argv) {
       if (c) asked.push_back(sp.name);
     }
     std::vector<std::string> no_cooling;
-    for (const RigLog& l : logs) {
-      ReplayOptions o;
-      o.eps0 = eps0;
-      Model m = start;
-      if (&l != &logs[0]) m.fx.sensor_offset_mm = start_offset(l);
-      if (!sma_host::cools_through_transformation(sma_host::replay(m, l, o))) no_cooling.push_back(l.name);
-    }
+    for (const RigLog& l : logs)
+      if (!sma_host::cools_in_log(l)) no_cooling.push_back(l.name);
     std::string plist, llist;
     for (const std::string& n : asked) plist += (plist.empty() ? "" : ", ") + n;
     for (const std::string& n : no_cooling) llist += (llist.empty() ? "" : ", ") + n;
     if (!asked.empty() && no_cooling.size() == logs.size())
-      throw Error(llist + ": the wire is never cooled back through its transformation (the start model's "
-                  "austenite fraction never falls by 0.2), so the cooling parameters " + plist +
+      throw Error(llist + ": the wire is never cooled back through its transformation (the measured position "
+                  "never falls from its peak by 20 % of the stroke), so the cooling parameters " + plist +
                   " cannot be fitted on it: give a log that heats AND cools, or --fix " + plist);
     if (!asked.empty() && !no_cooling.empty())
       notes.push_back(llist + ": no cooling through the transformation: the cooling parameters (" + plist +

@@ -216,7 +216,10 @@ inline RunErrors run_errors(const std::vector<double>& r, const std::vector<doub
     const size_t a = k ? k - 1 : 0, b = k + 1 < T.size() ? k + 1 : k;
     add(T[b] - T[a] >= 0.0 ? 1 : 2, r[k]);
   }
-  for (int i = 0; i < 3; ++i) out[i]->rms = out[i]->n ? sqrt(s[i] / static_cast<double>(out[i]->n)) : 0.0;
+  for (int i = 0; i < 3; ++i) {  // a half the run does not have: NaN (null in JSON, "-" in tables)
+    out[i]->rms = out[i]->n ? sqrt(s[i] / static_cast<double>(out[i]->n)) : NAN;
+    if (!out[i]->n) out[i]->max = NAN;
+  }
   return e;
 }
 
@@ -325,14 +328,28 @@ inline void check_compatible(const std::vector<const RigLog*>& logs) {
   }
 }
 
-// True if the model, driven by the log, cools through part of the reverse transformation: the
-// fraction falls by at least `min_drop` somewhere. Without it the cooling parameters (T_MF, q,
+// True if the log shows the wire cooling back: the measured position (averaged over 0.5 s) falls
+// from its running peak by at least `min_drop` of the log's stroke (1st..99th percentile), i.e.
+// part of the reverse transformation was recorded. From the data, not from a start model (a bad
+// start model may never cool on the log's voltage). Without it the cooling parameters (T_MF, q,
 // e, T_MSs, T_MSf, loops) have nothing to be fitted on.
-inline bool cools_through_transformation(const Trace& tr, double min_drop = 0.2) {
-  double peak = 0.0;
-  for (double e : tr.eps) {
-    peak = std::max(peak, e);
-    if (peak - e >= min_drop) return true;
+inline bool cools_in_log(const RigLog& log, double min_drop = 0.2) {
+  const size_t n = log.size();
+  if (n < 3) return false;
+  std::vector<double> sorted = log.d;
+  std::sort(sorted.begin(), sorted.end());
+  const double span = sorted[(n - 1) * 99 / 100] - sorted[(n - 1) / 100];
+  if (!(span > 0)) return false;
+  const double dt = log.sample_period();
+  const size_t w = std::max<size_t>(1, dt > 0 ? static_cast<size_t>(0.5 / dt) : 1);
+  double sum = 0, peak = -INFINITY;
+  for (size_t k = 0; k < n; ++k) {
+    sum += log.d[k];
+    if (k >= w) sum -= log.d[k - w];
+    if (k + 1 < w) continue;
+    const double avg = sum / static_cast<double>(w);
+    peak = std::max(peak, avg);
+    if (peak - avg >= min_drop * span) return true;
   }
   return false;
 }
