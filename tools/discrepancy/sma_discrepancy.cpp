@@ -132,6 +132,24 @@ int run(int argc, char** argv) {
     for (const sma_host::BaseSpec* b : sma_host::all_base(model.p))
       if (std::find(opt.refit_base.begin(), opt.refit_base.end(), b) == opt.refit_base.end()) opt.refit_base.push_back(b);
   // A log must be long enough for held-out blocks and must excite the wire.
+  // Refitting the cooling parameters needs a run that cools the wire back (identify.hpp).
+  {
+    std::string asked, lacking;
+    for (const sma_host::BaseSpec* b : opt.refit_base) {
+      const std::string n = b->name;
+      if (n == "T_MF" || n == "q" || n == "e" || n == "T_MSs" || n == "T_MSf" || n[0] == 'j' || n.compare(0, 4, "T_ii") == 0)
+        asked += (asked.empty() ? "" : ", ") + n;
+    }
+    size_t cooling = 0;
+    for (const sma_host::RigLog& fl : files) {
+      if (sma_host::cools_in_log(fl)) ++cooling;
+      else lacking += (lacking.empty() ? "" : ", ") + fl.name;
+    }
+    if (!asked.empty() && cooling == 0)
+      throw Error(lacking + ": the wire is never cooled back through its transformation (the measured position never "
+                  "falls from its peak by 20 % of the stroke), so --refit-base cannot refit " + asked +
+                  " on it: give a run that heats AND cools, or leave them out of --refit-base");
+  }
   for (const sma_host::RigLog& fl : files) {
   if (fl.duration() < 4 * opt.block_s)
     throw Error(fl.name + ": " + number(fl.duration()) + " s of log; at least " + number(4 * opt.block_s) +

@@ -87,6 +87,8 @@ def main():
     write_log(heat, [{"t_s": float(r["t_s"]), "v_V": float(r["v_V"]), "d_mm": float(r["d_mm"])}
                      for r in rows if float(r["t_s"]) < 34.0])
     fails_with([FIT, heat, "--params", params, "--out", os.path.join(tmp, "f3")], "heat_only.csv", "T_MF", "cool")
+    fails_with([DISC, heat, "--params", params, "--refit-base", "all", "--out", os.path.join(tmp, "f3d")],
+               "heat_only.csv", "T_MF", "cool")
 
     # An unknown key in the start file: named.
     badp = os.path.join(tmp, "bad_start.json")
