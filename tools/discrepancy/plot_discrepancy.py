@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Plots of a discrepancy run (called by sma_discrepancy): reads DIR/trace.csv and
-DIR/analysis.json, writes DIR/fit.png, DIR/residuals.png, DIR/loops.png."""
+DIR/analysis.json, writes DIR/fit.png, DIR/residuals.png, DIR/loops.png and
+DIR/residual_states.png (the residual left against the model's states, report.json "residual_analysis")."""
 import json
 import os
 import sys
@@ -79,6 +80,22 @@ def main(out: str) -> int:
     fig.tight_layout()
     fig.savefig(os.path.join(out, "loops.png"), dpi=90)
     plt.close(fig)
+    ra = rep.get("residual_analysis")
+    if ra and ra["states"]:
+        fig, axs = plt.subplots(2, 3, figsize=(12, 6.5))
+        for a, st in zip(axs.flat, ra["states"]):
+            a.plot(st["bin_state"], st["bin_mean_mm"], "o-", color="tab:purple")
+            a.axhline(0, color="0.5", lw=0.8)
+            a.set_xlabel(f"{st['state']} ({st['unit']})")
+            a.set_ylabel("mean residual, mm")
+            a.set_title(f"R² binned {st['r2_binned']:.2f}, line {st['r2_linear']:.2f}", fontsize=9)
+            a.grid(alpha=0.3)
+        head = "the vocabulary does not explain this log: " if ra.get("no_credible_candidate") else ""
+        fig.suptitle(f"{head}residual left (RMS {ra['rms_mm']:.4f} mm) against the model's states"
+                     + (f"; follows {ra['follows']}" if ra["follows"] else ""))
+        fig.tight_layout()
+        fig.savefig(os.path.join(out, "residual_states.png"), dpi=90)
+        plt.close(fig)
     return 0
 
 

@@ -7,11 +7,13 @@
 // plot_discrepancy.py. Exit code: 0 done, 1 bad input (message names file, line, problem).
 #include <sys/stat.h>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
 #include <sstream>
 #include "sma_host/discrepancy.hpp"
+#include "sma_host/residual_analysis.hpp"
 #include "sma_host/residuals.hpp"
 #include "sma_tools/cli.hpp"
 #include "sma_tools/json.hpp"
@@ -24,8 +26,11 @@ using sma_tools::json::number;
 using sma_tools::json::quote;
 
 const char* kUsage =
-    "usage: sma_discrepancy LOG.csv [--params PARAMS.json] --out DIR [--max-effects N] [--min-gain F]\n"
-    "                       [--block-s S] [--refit-base all|h,T_AS,...] [--no-plots]\n"
+    "usage: sma_discrepancy LOG.csv [LOG2.csv ...] [--params PARAMS.json] --out DIR [--max-effects N]\n"
+    "                       [--min-gain F] [--block-s S] [--refit-base all|h,T_AS,...]\n"
+    "                       [--validate V.csv ...] [--no-plots]\n"
+    "  several LOGs   one wire, a sensor zero per run (one sample rate and column set, else refused)\n"
+    "  --validate     runs predicted by the corrected model (zero fitted alone): table in report\n"
     "  --refit-base   base parameters refitted jointly with every candidate effect (default: none,\n"
     "                 the base model stays as given); use it when the base was fitted on a log where\n"
     "                 it could absorb the missing effect; `all`: every parameter tools/sma fit\n"
@@ -54,6 +59,7 @@ std::string params_json(const sma_host::FittedEffect& e, bool ci) {
 
 // Four significant digits for people (the JSON keeps full precision).
 std::string num(double x) {
+  if (std::isnan(x)) return "-";
   char b[32];
   std::snprintf(b, sizeof b, "%.4g", x);
   return b;
@@ -67,6 +73,7 @@ void write_file(const std::string& path, const std::string& text) {
 int run(int argc, char** argv) {
   sma_tools::Args args(argc, argv);
   std::string log_path, params_path, out;
+  std::vector<std::string> log_paths, val_paths;
   sma_host::Options opt;
   bool plots = true;
   bool refit_all = false;  // --refit-base all: resolved once the model's loop count is known
@@ -78,6 +85,10 @@ int run(int argc, char** argv) {
     else if (a == "--min-gain") opt.min_gain = args.number(a);
     else if (a == "--block-s") opt.block_s = args.number(a);
     else if (a == "--no-plots") plots = false;
+    else if (a == "--validate") {
+      val_paths.push_back(args.value(a));
+      while (!args.empty() && !args.peek().empty() && args.peek()[0] != '-') val_paths.push_back(args.next());
+    }
     else if (a == "--refit-base") {
       for (const std::string& n : sma_tools::split_names(args.value(a))) {
         if (n == "all") {
@@ -95,34 +106,63 @@ int run(int argc, char** argv) {
       std::cout << kUsage;
       return 0;
     } else if (!a.empty() && a[0] == '-') throw Error("unknown option " + a + "\n" + kUsage);
-    else if (log_path.empty()) log_path = a;
-    else throw Error("one log only (got " + log_path + " and " + a + ")\n" + kUsage);
+    else log_paths.push_back(a);
   }
+  for (const std::string& lp : log_paths) log_path += (log_path.empty() ? "" : "+") + lp;
   if (log_path.empty() || out.empty()) throw Error(std::string("missing LOG.csv or --out DIR\n") + kUsage);
   if (!(opt.max_effects >= 0 && opt.max_effects <= 7)) throw Error("--max-effects must be 0..7");
   if (!(opt.min_gain > 0 && opt.min_gain < 1)) throw Error("--min-gain must be in (0, 1)");
   if (!(opt.block_s >= 1)) throw Error("--block-s must be >= 1 s");
 
-  const sma_tools::RigLog file = sma_tools::read_rig_log(log_path);
-  const std::string note = sma_tools::dropped_note(file);
-  if (!note.empty()) std::cerr << note << "\n";
+  std::vector<sma_host::RigLog> files;
+  for (const std::string& lp : log_paths) {
+    files.push_back(sma_tools::read_rig_log(lp));
+    const std::string note = sma_tools::dropped_note(files.back());
+    if (!note.empty()) std::cerr << note << "\n";
+  }
+  std::vector<const sma_host::RigLog*> ptrs;
+  for (const sma_host::RigLog& f : files) ptrs.push_back(&f);
+  sma_host::check_compatible(ptrs);
+  // Several runs of one wire: one log of several runs, each with its own sensor zero
+  // (identify.hpp: concatenate, replay).
+  const sma_host::RigLog file = files.size() == 1 ? files[0] : sma_host::concatenate(ptrs);
   sma_tools::Model model;
   if (!params_path.empty()) model = sma_tools::read_model(params_path);
   if (refit_all)
     for (const sma_host::BaseSpec* b : sma_host::all_base(model.p))
       if (std::find(opt.refit_base.begin(), opt.refit_base.end(), b) == opt.refit_base.end()) opt.refit_base.push_back(b);
   // A log must be long enough for held-out blocks and must excite the wire.
-  if (file.duration() < 4 * opt.block_s)
-    throw Error(log_path + ": " + number(file.duration()) + " s of log; at least " + number(4 * opt.block_s) +
+  // Refitting the cooling parameters needs a run that cools the wire back (identify.hpp).
+  {
+    std::string asked, lacking;
+    for (const sma_host::BaseSpec* b : opt.refit_base) {
+      const std::string n = b->name;
+      if (n == "T_MF" || n == "q" || n == "e" || n == "T_MSs" || n == "T_MSf" || n[0] == 'j' || n.compare(0, 4, "T_ii") == 0)
+        asked += (asked.empty() ? "" : ", ") + n;
+    }
+    size_t cooling = 0;
+    for (const sma_host::RigLog& fl : files) {
+      if (sma_host::cools_in_log(fl)) ++cooling;
+      else lacking += (lacking.empty() ? "" : ", ") + fl.name;
+    }
+    if (!asked.empty() && cooling == 0)
+      throw Error(lacking + ": the wire is never cooled back through its transformation (the measured position never "
+                  "falls from its peak by 20 % of the stroke), so --refit-base cannot refit " + asked +
+                  " on it: give a run that heats AND cools, or leave them out of --refit-base");
+  }
+  for (const sma_host::RigLog& fl : files) {
+  if (fl.duration() < 4 * opt.block_s)
+    throw Error(fl.name + ": " + number(fl.duration()) + " s of log; at least " + number(4 * opt.block_s) +
                 " s are needed (4 blocks of --block-s)");
-  double vmin = file.v[0], vmax = file.v[0];
-  for (double v : file.v) {
+  double vmin = fl.v[0], vmax = fl.v[0];
+  for (double v : fl.v) {
     vmin = std::min(vmin, v);
     vmax = std::max(vmax, v);
   }
-  if (vmax - vmin < 0.05) throw Error(log_path + ": the voltage never changes (no excitation to learn from)");
+  if (vmax - vmin < 0.05) throw Error(fl.name + ": the voltage never changes (no excitation to learn from)");
+  }
 
-  sma_host::RigLog log{file.t, file.v, file.d};
+  const sma_host::RigLog& log = file;
   std::cerr << "discrepancy: " << log.size() << " samples, " << number(file.duration()) << " s\n";
   const sma_host::Diagnosis d = sma_host::diagnose(
       model.p, log, opt,
@@ -155,6 +195,54 @@ int run(int argc, char** argv) {
   const sma::Effects final_fx = sma_host::effects_of(d.effects);
   const sma_host::Trace nominal = sma_host::trace(model.p, model.fx, log);
   const sma_host::Trace corrected = sma_host::trace(d.params, final_fx, log);
+  // What is left after the last round, against the model's states (residual_analysis.hpp).
+  std::vector<double> left(log.size());
+  for (size_t k = 0; k < log.size(); ++k) left[k] = log.d[k] - corrected.d[k];
+  const sma_host::ResidualAnalysis ra = sma_host::analyse_residual(log, corrected, left);
+  // No candidate credible: the gap stays well above the noise, and the last round added nothing
+  // (every candidate too small a gain, or at a bound).
+  const bool unexplained = d.rms_final > 3 * d.noise_mm;
+  const bool none_credible = unexplained && !d.rejected.empty();
+
+  // The table of runs: each training run (its own sensor zero, see identify.hpp) and each
+  // --validate run predicted by the final model with its zero fitted alone; whole run, heating
+  // and cooling halves (the model's dT/dt).
+  struct RunRow {
+    std::string log, role;
+    double offset_mm;
+    sma_host::RunErrors e;
+  };
+  std::vector<RunRow> runs;
+  {
+    std::vector<size_t> bounds = {0};
+    for (size_t b : log.run_starts) bounds.push_back(b);
+    bounds.push_back(log.size());
+    for (size_t r = 0; r + 1 < bounds.size(); ++r) {
+      std::vector<double> res(left.begin() + static_cast<long>(bounds[r]), left.begin() + static_cast<long>(bounds[r + 1]));
+      std::vector<double> T(corrected.T.begin() + static_cast<long>(bounds[r]),
+                            corrected.T.begin() + static_cast<long>(bounds[r + 1]));
+      double off = final_fx.sensor_offset_mm;
+      if (r > 0) {  // the zero the replay fitted to this run (it starts at rest, fraction 0)
+        sma_host::ReplayOptions ro;
+        ro.eps0 = 0.0;
+        off += sma_host::best_offset(files[r].d, sma_host::replay(sma_host::Model{d.params, final_fx}, files[r], ro).d);
+      }
+      runs.push_back({files[r].name, "training", off, sma_host::run_errors(res, T)});
+    }
+  }
+  for (const std::string& vp : val_paths) {
+    const sma_host::RigLog vlog = sma_tools::read_rig_log(vp);
+    sma_host::Model mv{d.params, final_fx};
+    sma_host::Trace tv;
+    for (int it = 0; it < 3; ++it) {
+      tv = sma_host::replay(mv, vlog);
+      mv.fx.sensor_offset_mm += sma_host::best_offset(vlog.d, tv.d);
+    }
+    tv = sma_host::replay(mv, vlog);
+    std::vector<double> res(vlog.size());
+    for (size_t k = 0; k < res.size(); ++k) res[k] = vlog.d[k] - tv.d[k];
+    runs.push_back({vlog.name, "validation", mv.fx.sensor_offset_mm, sma_host::run_errors(res, tv.T)});
+  }
 
   // report.json: the contract's keys first, then what the human report and plots use.
   std::ostringstream j;
@@ -186,6 +274,26 @@ int run(int argc, char** argv) {
       << ", \"rms_mm_heldout\": " << number(d.rejected[k].rms_test) << "}";
   j << "],\n  \"pruned\": [";
   for (size_t k = 0; k < d.pruned.size(); ++k) j << (k ? ", " : "") << quote(d.pruned[k]);
+  j << "],\n  \"residual_analysis\": {\"rms_mm\": " << number(ra.rms_mm) << ", \"follows\": " << quote(ra.follows)
+    << ", \"no_credible_candidate\": " << (none_credible ? "true" : "false") << ", \"at_bound\": [";
+  for (size_t k = 0; k < d.at_bound.size(); ++k) j << (k ? ", " : "") << quote(d.at_bound[k]);
+  j << "], \"states\": [";
+  for (size_t k = 0; k < ra.states.size(); ++k) {
+    const sma_host::StateFit& sf = ra.states[k];
+    j << (k ? "," : "") << "\n      {\"state\": " << quote(sf.state) << ", \"unit\": " << quote(sf.unit)
+      << ", \"r2_linear\": " << number(sf.r2_linear) << ", \"r2_binned\": " << number(sf.r2_binned)
+      << ", \"slope_mm_per_unit\": " << number(sf.slope) << ", \"bin_state\": " << list_json(sf.bin_x)
+      << ", \"bin_mean_mm\": " << list_json(sf.bin_mean) << "}";
+  }
+  j << "]},\n  \"runs\": [";
+  for (size_t i = 0; i < runs.size(); ++i) {
+    const RunRow& r = runs[i];
+    j << (i ? "," : "") << "\n    {\"log\": " << quote(r.log) << ", \"role\": " << quote(r.role)
+      << ", \"offset_mm\": " << number(r.offset_mm) << ", \"rms_mm\": " << number(r.e.all.rms)
+      << ", \"max_mm\": " << number(r.e.all.max) << ", \"rms_mm_heating\": " << number(r.e.heating.rms)
+      << ", \"max_mm_heating\": " << number(r.e.heating.max) << ", \"rms_mm_cooling\": " << number(r.e.cooling.rms)
+      << ", \"max_mm_cooling\": " << number(r.e.cooling.max) << "}";
+  }
   j << "],\n  \"warnings\": [";
   for (size_t i = 0; i < warnings.size(); ++i) j << (i ? ", " : "") << quote(warnings[i]);
   j << "]\n}\n";
@@ -280,6 +388,36 @@ int run(int argc, char** argv) {
     md << "\n";
   }
   for (const std::string& w : warnings) md << "\n**Warning:** " << w << ".\n";
+  md << "\n## Runs (corrected model)\n\nTraining runs with their own sensor zero; validation runs predicted with "
+        "their zero fitted alone. Heating / cooling: where the model's temperature rises / falls.\n\n"
+        "| log | role | offset, mm | RMS, mm | max, mm | RMS heating | max heating | RMS cooling | max cooling |\n"
+        "|---|---|---|---|---|---|---|---|---|\n";
+  for (const RunRow& r : runs)
+    md << "| `" << r.log << "` | " << r.role << " | " << num(r.offset_mm) << " | " << num(r.e.all.rms) << " | "
+       << num(r.e.all.max) << " | " << num(r.e.heating.rms) << " | " << num(r.e.heating.max) << " | "
+       << num(r.e.cooling.rms) << " | " << num(r.e.cooling.max) << " |\n";
+  md << "\n## What the residual follows\n\n";
+  if (none_credible)
+    md << "**The vocabulary does not explain this log**: " << (d.steps.empty() ? "" : "after the effects above, ")
+       << "the gap left (" << num(d.rms_final) << " mm) is " << num(d.rms_final / d.noise_mm)
+       << "x the noise, no further candidate is credible, and "
+       << (d.at_bound.empty() ? std::string("no candidate shrinks it enough")
+                              : "the candidates that would shrink it end at a bound of their range (not added)")
+       << ". The model lacks something; the residual against the model's states shows where:\n\n";
+  else
+    md << "The residual left after the last round (RMS " << num(ra.rms_mm) << " mm) against the model's states:\n\n";
+  md << "| state | R^2 (binned means) | R^2 (straight line) | slope, mm per unit |\n|---|---|---|---|\n";
+  for (const sma_host::StateFit& sf : ra.states)
+    md << "| " << sf.state << " (" << sf.unit << ") | " << num(sf.r2_binned) << " | " << num(sf.r2_linear) << " | "
+       << num(sf.slope) << " |\n";
+  md << "\n" << (ra.follows.empty() ? std::string("The residual follows none of these states clearly (best R^2 < 0.3).")
+                                    : "The residual follows **" + ra.follows + "** most (plot: `residual_states.png`).")
+     << "\n";
+  if (!d.at_bound.empty()) {
+    md << "\nNot added, at a bound of their range (stand-ins, not measurements):";
+    for (const std::string& n : d.at_bound) md << " `" << n << "`";
+    md << ".\n";
+  }
   md << "\n## Where the gap lives (residual RMS, mm)\n\n| regime | share of log | paper's model | corrected |\n|---|---|---|---|\n";
   for (size_t i = 0; i < reg0.size(); ++i)
     md << "| " << reg0[i].regime << " | " << num(100 * reg0[i].share) << " % | " << num(reg0[i].rms_mm) << " | "
@@ -293,6 +431,14 @@ int run(int argc, char** argv) {
     const std::string cmd = "python3 \"" + std::string(SMA_DISCREPANCY_PLOT) + "\" \"" + out + "\"";
     if (std::system(cmd.c_str()) != 0) std::cerr << "discrepancy: plotting failed (the reports are written)\n";
   }
+  if (runs.size() > 1) {
+    std::printf("%-32s %-10s %9s %9s %9s %9s %9s %9s\n", "run", "role", "RMS mm", "max mm", "RMS heat", "max heat",
+                "RMS cool", "max cool");
+    for (const RunRow& r : runs)
+      std::printf("%-32s %-10s %9.4f %9.4f %9.4f %9.4f %9.4f %9.4f\n", r.log.c_str(), r.role.c_str(), r.e.all.rms,
+                  r.e.all.max, r.e.heating.rms, r.e.heating.max, r.e.cooling.rms, r.e.cooling.max);
+  }
+  if (!ra.follows.empty() && unexplained) std::cout << "the gap left follows the model's " << ra.follows << "\n";
   std::cout << "gap " << number(d.rms_nominal) << " mm -> " << number(d.rms_final) << " mm;";
   for (const sma_host::FittedEffect& e : d.effects) std::cout << " " << e.spec->name;
   if (d.effects.empty()) std::cout << " nothing added";

@@ -31,7 +31,7 @@
 using namespace sma_tools;
 
 static const char* kUsage =
-    "usage: sma_fit LOG.csv --out DIR [--params START.json] [--validate LOG2.csv]\n"
+    "usage: sma_fit LOG.csv [LOG2.csv ...] --out DIR [--params START.json] [--validate V.csv ...]\n"
     "               [--fit NAMES | --fix NAMES] [--max-points N] [--max-evals N] [--eps0 X]\n"
     "\n"
     "Fits the model to a training log (paper III.B: slow decaying voltage ramp with reversals)\n"
@@ -45,12 +45,15 @@ static const char* kUsage =
     "                       alpha_per_K (thermal_expansion), L_J (latent_heat),\n"
     "                       beta_per_K (convection_nonlinear)\n"
     "  --fix NAMES          remove these from the default set\n"
-    "  --validate LOG2.csv  a second log, not used for the fit: RMS / max error of the fitted\n"
-    "                       model on it (with the fitted sensor offset and with the sensor\n"
-    "                       tared on its first samples)\n"
+    "  several LOGs         one wire fitted to all of them, with a sensor zero per run (they\n"
+    "                       must share one sample rate and column set, else refused)\n"
+    "  --validate V.csv ... logs not used for the fit: the fitted model predicts each (its sensor\n"
+    "                       zero fitted alone); table of RMS / max error, whole run, heating and\n"
+    "                       cooling halves (fit.json \"runs\", report.md)\n"
     "  --max-points N       residual samples used by the fit (default 6000, evenly spaced)\n"
     "  --max-evals N        budget of model runs for LM (default 400)\n"
-    "  --eps0 X             austenite fraction at the start of the log (default 0)\n"
+    "  --eps0 X             austenite fraction at the start of each log (default: the engine's\n"
+    "                       rule, from the log's first readings; docs/identification.md)\n"
     "  --max-bad F          refuse a log with more than this fraction of bad rows (0.01)\n"
     "  --loops-at-reversals move the loop knots T_i from the start values to the log's reversal\n"
     "                       temperatures inside (T_s, T_f), where j and T_ii are observed\n"
@@ -119,21 +122,25 @@ std::vector<std::string> default_fit(const Model& m) {
 }
 
 // ---- the residual ------------------------------------------------------------------------------
+// Over one or several logs of one wire: the shared parameters, and a sensor offset per run after
+// the first (a potentiometer's zero moves between runs; specs with ref == nullptr, index = run).
 struct Problem {
-  const RigLog* log;
+  std::vector<const RigLog*> logs;
   Model start;
   std::vector<ParamSpec> specs;  // fitted, in order
   std::vector<double> x0;        // start values (physical)
   size_t stride = 1;
-  double eps0 = 0.0;
+  double eps0 = -1.0;            // < 0: the engine's initial-state rule
   double penalty = 1.0;          // residual of a non-physical set, mm
+  std::vector<double> run_offset;  // start sensor offsets of runs 1.. (run 0: the model's)
   mutable long runs = 0;
 
-  // x (normalised) -> model
+  // x (normalised) -> model (of run 0)
   Model model_at(const Eigen::VectorXd& x) const {
     Model m = start;
     for (size_t i = 0; i < specs.size(); ++i) {
       const ParamSpec& s = specs[i];
+      if (!s.ref) continue;
       const double xi = x[static_cast<Eigen::Index>(i)];
       *s.ref(m, s.index) = s.log ? x0[i] * std::exp(xi * s.scale) : x0[i] + xi * s.scale;
     }
@@ -142,16 +149,31 @@ struct Problem {
     if (!(m.p.T_MS > m.p.T_MF)) m.p.T_MS = m.p.T_MF + 1.0;
     return m;
   }
+  // The model of run r: run 0's, with run r's own sensor offset.
+  Model model_for_run(const Model& m0, const Eigen::VectorXd& x, size_t r) const {
+    Model m = m0;
+    if (r == 0) return m;
+    m.fx.sensor_offset_mm = run_offset[r - 1];
+    for (size_t i = 0; i < specs.size(); ++i)
+      if (!specs[i].ref && static_cast<size_t>(specs[i].index) == r)
+        m.fx.sensor_offset_mm = x0[i] + x[static_cast<Eigen::Index>(i)] * specs[i].scale;
+    return m;
+  }
   // d(physical)/d(x) at x, for the covariance in physical units.
   double dphys(const Eigen::VectorXd& x, size_t i) const {
     const ParamSpec& s = specs[i];
     const double xi = x[static_cast<Eigen::Index>(i)];
     return s.log ? x0[i] * std::exp(xi * s.scale) * s.scale : s.scale;
   }
-  size_t rows() const { return (log->size() + stride - 1) / stride; }
+  size_t rows_of(size_t r) const { return (logs[r]->size() + stride - 1) / stride; }
+  size_t rows() const {
+    size_t n = 0;
+    for (size_t r = 0; r < logs.size(); ++r) n += rows_of(r);
+    return n;
+  }
 
   // Residuals; false if the set is not physical (then f = penalty everywhere).
-  bool residual(const Model& m, Eigen::VectorXd& f) const {
+  bool residual(const Model& m, Eigen::VectorXd& f, const Eigen::VectorXd* x = nullptr) const {
     const size_t n = rows();
     f.resize(static_cast<Eigen::Index>(n));
     if (m.p.check() || m.fx.check()) {
@@ -163,12 +185,16 @@ struct Problem {
     o.eps0 = eps0;
     o.want_states = false;
     Trace tr;
-    replay(m, log->t, log->v, o, tr);
-    ++runs;
-    for (size_t k = 0; k < n; ++k)
-      f[static_cast<Eigen::Index>(k)] = tr.y[k] - log->d[k * stride];
+    Eigen::Index row = 0;
+    const Eigen::VectorXd none = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(specs.size()));
+    for (size_t r = 0; r < logs.size(); ++r) {
+      tr = sma_host::replay(model_for_run(m, x ? *x : none, r), *logs[r], o);
+      ++runs;
+      for (size_t k = 0; k < rows_of(r); ++k) f[row++] = tr.d[k] - logs[r]->d[k * stride];
+    }
     return true;
   }
+  bool residual_at(const Eigen::VectorXd& x, Eigen::VectorXd& f) const { return residual(model_at(x), f, &x); }
 };
 
 struct LmFunctor {
@@ -181,21 +207,21 @@ struct LmFunctor {
   int inputs() const { return static_cast<int>(pb->specs.size()); }
   int values() const { return static_cast<int>(pb->rows()); }
   int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
-    pb->residual(pb->model_at(x), f);
+    pb->residual_at(x, f);
     return 0;
   }
   // Forward differences, step 0.01 normalised units (0.01 K for temperatures, 0.1 % for h, g).
   int df(const Eigen::VectorXd& x, Eigen::MatrixXd& J) const {
     Eigen::VectorXd f0, f1;
-    pb->residual(pb->model_at(x), f0);
+    pb->residual_at(x, f0);
     J.resize(f0.size(), x.size());
     for (Eigen::Index i = 0; i < x.size(); ++i) {
       Eigen::VectorXd xs = x;
       double h = 0.01;
       xs[i] += h;
-      if (!pb->residual(pb->model_at(xs), f1)) {  // at a bound: step the other way
+      if (!pb->residual_at(xs, f1)) {  // at a bound: step the other way
         xs[i] = x[i] - h;
-        pb->residual(pb->model_at(xs), f1);
+        pb->residual_at(xs, f1);
         h = -h;
       }
       J.col(i) = (f1 - f0) / h;
@@ -238,16 +264,8 @@ double percentile(std::vector<double> v, double p) {
   return v[std::min(k, v.size() - 1)];
 }
 
-// Displacement noise from the second differences (a slow signal cancels in them).
-double noise_estimate(const std::vector<double>& d) {
-  if (d.size() < 10) return 0.0;
-  std::vector<double> dd;
-  for (size_t k = 2; k < d.size(); ++k) dd.push_back(std::fabs(d[k] - 2 * d[k - 1] + d[k - 2]));
-  // median |N(0, 6 s^2)| = 0.6745 sqrt(6) s
-  return percentile(dd, 0.5) / (0.6745 * std::sqrt(6.0));
-}
-
 std::string fmt(double x, int prec = 4) {
+  if (std::isnan(x)) return "-";
   if (!std::isfinite(x)) return "inf";
   char buf[48];
   std::snprintf(buf, sizeof buf, "%.*g", prec, x);
@@ -277,7 +295,7 @@ void write_curves(const std::string& path, const RigLog& log, const Trace& fit, 
   char buf[256];
   for (size_t k = 0; k < log.size(); k += stride) {
     std::snprintf(buf, sizeof buf, "%.4f,%.5f,%.6f,%.6f,%.6f,%.4f,%.6f,%.6f\n", log.t[k], log.v[k],
-                  log.d[k], fit.y[k], start.y[k], fit.T[k], fit.eps[k], fit.D[k]);
+                  log.d[k], fit.d[k], start.d[k], fit.T[k], fit.eps[k], fit.D[k]);
     f << buf;
   }
 }
@@ -295,6 +313,12 @@ void make_dirs(const std::string& dir) {
   }
 }
 
+struct RunRow {
+  std::string log, role;
+  double offset_mm;
+  sma_host::RunErrors e;
+};
+
 struct Validation {
   std::string name;
   size_t rows = 0;
@@ -304,10 +328,11 @@ struct Validation {
 
 int run(int argc, char** argv) {
   Args a(argc, argv);
-  std::string log_path, out_dir, params_path, val_path, fit_list, fix_list;
+  std::string out_dir, params_path, fit_list, fix_list;
+  std::vector<std::string> log_paths, val_paths;
   size_t max_points = 6000;
   long max_evals = 400;
-  double eps0 = 0.0;
+  double eps0 = -1.0;
   bool loops_at_reversals = false;
   bool guess = false;
   double band_hint = NAN;
@@ -323,7 +348,10 @@ int run(int argc, char** argv) {
       return 0;
     } else if (k == "--out") out_dir = a.value(k);
     else if (k == "--params") params_path = a.value(k);
-    else if (k == "--validate") val_path = a.value(k);
+    else if (k == "--validate") {
+      val_paths.push_back(a.value(k));
+      while (!a.empty() && !a.peek().empty() && a.peek()[0] != '-') val_paths.push_back(a.next());
+    }
     else if (k == "--fit") fit_list = a.value(k);
     else if (k == "--fix") fix_list = a.value(k);
     else if (k == "--max-points") max_points = static_cast<size_t>(std::max(100.0, a.number(k)));
@@ -334,44 +362,60 @@ int run(int argc, char** argv) {
     else if (k == "--guess") guess = true;
     else if (k == "--band-hint") band_hint = a.number(k);
     else if (!k.empty() && k[0] == '-') throw Error("unknown option '" + k + "' (see --help)");
-    else if (log_path.empty()) log_path = k;
-    else throw Error("unexpected argument '" + k + "' (one training log; use --validate for a second)");
+    else log_paths.push_back(k);
   }
-  if (log_path.empty()) throw Error("no training log given (see --help)");
+  if (log_paths.empty()) throw Error("no training log given (see --help)");
   if (out_dir.empty()) throw Error("--out DIR is required");
-  if (!(eps0 >= 0.0 && eps0 <= 1.0)) throw Error("--eps0 must be in 0..1");
+  if (eps0 != -1.0 && !(eps0 >= 0.0 && eps0 <= 1.0)) throw Error("--eps0 must be in 0..1");
 
+  // The start model: the params file (default: the paper's Table II). Start values estimated from
+  // the logs themselves plug in here, as a function (logs, Model) -> Model.
   Model start = read_model(params_path);
   const std::string start_name = params_path.empty() ? "the paper's Table II" : params_path;
-  const RigLog log = read_rig_log(log_path, lro);
+  std::vector<RigLog> logs;
   std::vector<std::string> notes;
-  if (log.dropped) {
-    std::cerr << dropped_note(log) << "\n";
-    notes.push_back(log.name + ": dropped " + std::to_string(log.dropped) + " bad rows of " +
-                    std::to_string(log.rows_read));
+  for (const std::string& path : log_paths) {
+    logs.push_back(read_rig_log(path, lro));
+    const RigLog& l = logs.back();
+    if (l.dropped) {
+      std::cerr << dropped_note(l) << "\n";
+      notes.push_back(l.name + ": dropped " + std::to_string(l.dropped) + " bad rows of " + std::to_string(l.rows_read));
+    }
   }
+  std::vector<const RigLog*> log_ptrs;
+  for (const RigLog& l : logs) log_ptrs.push_back(&l);
+  sma_host::check_compatible(log_ptrs);
+  const RigLog& log = logs[0];
+  // Every training log must excite the wire (the checks below name the log that does not).
+  for (size_t li = logs.size(); li-- > 0;) {
+  const RigLog& lg = logs[li];
 
   // ---- is there anything to identify? ----------------------------------------------------------
   const double tau = start.p.heat_capacity() / start.p.conductance();
-  if (log.size() < 100 || log.duration() < tau)
-    throw Error(log.name + ": too short to identify anything: " + std::to_string(log.size()) +
-                " rows over " + fixed(log.duration(), 1) + " s (need >= 100 rows and >= " +
+  if (lg.size() < 100 || lg.duration() < tau)
+    throw Error(lg.name + ": too short to identify anything: " + std::to_string(lg.size()) +
+                " rows over " + fixed(lg.duration(), 1) + " s (need >= 100 rows and >= " +
                 fixed(tau, 1) + " s, one thermal time constant of the start model)");
-  if (log.duration() < 5.0 * tau)
-    notes.push_back(log.name + " lasts " + fixed(log.duration(), 1) + " s, less than 5 thermal time constants (" +
+  if (lg.duration() < 5.0 * tau)
+    notes.push_back(lg.name + " lasts " + fixed(lg.duration(), 1) + " s, less than 5 thermal time constants (" +
                     fixed(5 * tau, 1) + " s) of the start model: the thermal parameters are poorly determined");
-  const double vlo = *std::min_element(log.v.begin(), log.v.end());
-  const double vhi = *std::max_element(log.v.begin(), log.v.end());
+  const double vlo = *std::min_element(lg.v.begin(), lg.v.end());
+  const double vhi = *std::max_element(lg.v.begin(), lg.v.end());
   if (!(vhi - vlo > 1e-3))
-    throw Error(log.name + ": no excitation: v_V is constant (" + fixed(vlo, 4) +
+    throw Error(lg.name + ": no excitation: v_V is constant (" + fixed(vlo, 4) +
                 " V) over the whole log; identification needs a voltage that heats the wire "
                 "through its transformation and back (e.g. sma_sim --volt train)");
-  const double noise = noise_estimate(log.d);
+  const double noise_i = sma_host::noise_level(lg.d);
+  const double dspan_i = percentile(lg.d, 0.99) - percentile(lg.d, 0.01);
+  if (!(dspan_i > std::max(20.0 * noise_i, 1e-3)))
+    throw Error(lg.name + ": no excitation: d_mm only spans " + fmt(dspan_i) +
+                " mm (noise about " + fmt(noise_i) + " mm): the wire did not move");
+  }
+  const double vlo = *std::min_element(log.v.begin(), log.v.end());
+  const double vhi = *std::max_element(log.v.begin(), log.v.end());
+  const double noise = sma_host::noise_level(log.d);
   const double dspan = percentile(log.d, 0.99) - percentile(log.d, 0.01);
-  if (!(dspan > std::max(20.0 * noise, 1e-3)))
-    throw Error(log.name + ": no excitation: d_mm only spans " + fmt(dspan) +
-                " mm (noise about " + fmt(noise) + " mm): the wire did not move");
-  if (guess) {  // start values from the log itself
+  if (guess) {  // start values from the (first) log itself: initial_guess.hpp
     sma_host::GuessOptions go;
     go.band_hint_C = band_hint;
     const sma_host::Guess gs = sma_host::initial_guess(log.t, log.v, log.d, start.p, start.fx, go);
@@ -386,7 +430,7 @@ int run(int argc, char** argv) {
   {
     ReplayOptions o;
     o.eps0 = eps0;
-    replay(start, log.t, log.v, o, tr0);
+    replay(start, log.t, log.v, log.d, o, tr0);
   }
   const double Tmax0 = *std::max_element(tr0.T.begin(), tr0.T.end());
   if (Tmax0 < start.p.T_AS)
@@ -406,10 +450,12 @@ int run(int argc, char** argv) {
     if (it != names.end()) names.erase(it);
   }
   Problem pb;
-  pb.log = &log;
+  pb.logs = log_ptrs;
   pb.start = start;
   pb.eps0 = eps0;
-  pb.stride = std::max<size_t>(1, (log.size() + max_points - 1) / max_points);
+  size_t total_rows = 0;
+  for (const RigLog& l : logs) total_rows += l.size();
+  pb.stride = std::max<size_t>(1, (total_rows + max_points - 1) / max_points);
   pb.penalty = 10.0 * std::max(dspan, 1e-3);
   for (const auto& n : names) {
     const ParamSpec* found = nullptr;
@@ -426,7 +472,42 @@ int run(int argc, char** argv) {
     Model tmp = start;
     pb.x0.push_back(*found->ref(tmp, found->index));
   }
+  // A sensor zero per run after the first (a potentiometer's zero moves between runs): started
+  // at the run's first readings, fitted with the rest when offset_mm is.
+  const bool fit_offset = std::find(names.begin(), names.end(), "offset_mm") != names.end();
+  for (size_t r = 1; r < logs.size(); ++r) {
+    pb.run_offset.push_back(start_offset(logs[r]));
+    if (fit_offset) {
+      pb.specs.push_back({"offset_mm[" + logs[r].name + "]", 0.01 * start.p.g, false, nullptr, static_cast<int>(r)});
+      pb.x0.push_back(pb.run_offset.back());
+    }
+  }
   if (pb.specs.empty()) throw Error("nothing to fit");
+
+  // A fit of the cooling parameters needs a log that cools the wire back through its
+  // transformation: refused, naming the logs and the parameters, rather than misfitted.
+  {
+    const char* cooling[] = {"T_MF", "q", "e", "T_MSs", "T_MSf"};
+    std::vector<std::string> asked;
+    for (const ParamSpec& sp : pb.specs) {
+      bool c = sp.ref == ref_j || sp.ref == ref_Tii;
+      for (const char* n : cooling) c = c || sp.name == n;
+      if (c) asked.push_back(sp.name);
+    }
+    std::vector<std::string> no_cooling;
+    for (const RigLog& l : logs)
+      if (!sma_host::cools_in_log(l)) no_cooling.push_back(l.name);
+    std::string plist, llist;
+    for (const std::string& n : asked) plist += (plist.empty() ? "" : ", ") + n;
+    for (const std::string& n : no_cooling) llist += (llist.empty() ? "" : ", ") + n;
+    if (!asked.empty() && no_cooling.size() == logs.size())
+      throw Error(llist + ": the wire is never cooled back through its transformation (the measured position "
+                  "never falls from its peak by 20 % of the stroke), so the cooling parameters " + plist +
+                  " cannot be fitted on it: give a log that heats AND cools, or --fix " + plist);
+    if (!asked.empty() && !no_cooling.empty())
+      notes.push_back(llist + ": no cooling through the transformation: the cooling parameters (" + plist +
+                      ") come from the other logs");
+  }
 
   // ---- stage 1: the major loop and the thermal gain, from several starts of h --------------------
   // A quasi-static ramp fixes mostly G (T - T_amb) products: h and the transformation
@@ -442,7 +523,7 @@ int run(int argc, char** argv) {
     bool has_h = false;
     for (size_t i = 0; i < pb.specs.size(); ++i)
       for (const char* mname : major)
-        if (pb.specs[i].name == mname) {
+        if (pb.specs[i].name == mname || (!pb.specs[i].ref && std::string(mname) == "offset_mm")) {
           p1.specs.push_back(pb.specs[i]);
           has_h = has_h || pb.specs[i].name == "h";
         }
@@ -451,12 +532,14 @@ int run(int argc, char** argv) {
       if (has_h) mults = {1.0, 0.5, 0.63, 0.79, 1.26, 1.59, 2.0};
       double best_sse = INFINITY;
       Model best = pb.start;
+      std::vector<double> best_run_offset = pb.run_offset;
       double best_mult = 1.0;
       for (double mult : mults) {
         p1.start = pb.start;
         p1.start.p.h = pb.start.p.h * mult;
         p1.x0.clear();
-        for (const auto& sp : p1.specs) p1.x0.push_back(*sp.ref(p1.start, sp.index));
+        for (const auto& sp : p1.specs)
+          p1.x0.push_back(sp.ref ? *sp.ref(p1.start, sp.index) : pb.run_offset[static_cast<size_t>(sp.index) - 1]);
         LmFunctor f1{&p1};
         Eigen::VectorXd x1 = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(p1.specs.size()));
         Eigen::LevenbergMarquardt<LmFunctor> lm1(f1);
@@ -467,16 +550,20 @@ int run(int argc, char** argv) {
         lm1.minimize(x1);
         Eigen::VectorXd r1;
         const Model m1 = p1.model_at(x1);
-        if (!p1.residual(m1, r1)) continue;
+        if (!p1.residual_at(x1, r1)) continue;
         if (r1.squaredNorm() < best_sse) {
           best_sse = r1.squaredNorm();
           best = m1;
           best_mult = mult;
+          for (size_t r = 1; r < logs.size(); ++r) best_run_offset[r - 1] = p1.model_for_run(m1, x1, r).fx.sensor_offset_mm;
         }
       }
       pb.runs += p1.runs;
       pb.start = best;
-      for (size_t i = 0; i < pb.specs.size(); ++i) pb.x0[i] = *pb.specs[i].ref(best, pb.specs[i].index);
+      pb.run_offset = best_run_offset;
+      for (size_t i = 0; i < pb.specs.size(); ++i)
+        pb.x0[i] = pb.specs[i].ref ? *pb.specs[i].ref(best, pb.specs[i].index)
+                                   : pb.run_offset[static_cast<size_t>(pb.specs[i].index) - 1];
       stage1_note = "stage 1 (major loop";
       stage1_note += has_h ? ", best of 7 starts of h: x" + fixed(best_mult, 2) + ")" : ")";
       stage1_note += ": RMS " + fmt(std::sqrt(best_sse / static_cast<double>(pb.rows()))) + " mm";
@@ -492,7 +579,7 @@ int run(int argc, char** argv) {
     Trace tr1;
     ReplayOptions o;
     o.eps0 = eps0;
-    replay(pb.start, log.t, log.v, o, tr1);
+    replay(pb.start, log.t, log.v, log.d, o, tr1);
     std::vector<double> peaks;
     const double thr = 3.0;  // K: a reversal is a fall of at least this much after a peak
     double cand = tr1.T[0], low = tr1.T[0];
@@ -544,7 +631,7 @@ int run(int argc, char** argv) {
       for (size_t i = 0; i < pb.specs.size(); ++i)
         if (pb.specs[i].ref != ref_j && pb.specs[i].ref != ref_Tii) {
           keep.push_back(pb.specs[i]);
-          keep_x0.push_back(*pb.specs[i].ref(m, pb.specs[i].index));
+          keep_x0.push_back(pb.specs[i].ref ? *pb.specs[i].ref(m, pb.specs[i].index) : pb.x0[i]);
         }
       for (const ParamSpec& sp : all_specs(m))
         if (sp.ref == ref_j || sp.ref == ref_Tii) {
@@ -589,7 +676,7 @@ int run(int argc, char** argv) {
   // ---- Levenberg-Marquardt -----------------------------------------------------------------------
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(np));
   Eigen::VectorXd f_start;
-  pb.residual(pb.model_at(x), f_start);
+  pb.residual_at(x, f_start);
   Eigen::LevenbergMarquardt<LmFunctor> lm(fun);
   lm.parameters.maxfev = max_evals / static_cast<long>(np + 1) + 5;  // LM counts residual calls
   lm.parameters.xtol = 1e-6;
@@ -603,42 +690,25 @@ int run(int argc, char** argv) {
   Eigen::MatrixXd J;
   fun.df(x, J);
   Eigen::VectorXd fres;
-  pb.residual(fitted, fres);
+  pb.residual_at(x, fres);
   for (size_t i = 0; i < np; ++i) J.col(static_cast<Eigen::Index>(i)) /= pb.dphys(x, i);  // physical units
-  const double m_rows = static_cast<double>(fres.size());
-  const double s2 = fres.squaredNorm() / std::max(1.0, m_rows - static_cast<double>(np));
   std::vector<double> fr(fres.data(), fres.data() + fres.size());
   const Stats fs = stats_of(fr);
-  // Residual correlation between neighbouring samples makes s^2 (J^T J)^-1 optimistic by about
-  // (1 + rho) / (1 - rho) (AR(1) residual): reported as an inflation of the intervals.
-  const double rho = std::min(0.99, std::max(0.0, fs.lag1));
-  const double inflate = std::sqrt((1 + rho) / (1 - rho));
-  // Normalise columns, then SVD: (J^T J)^+ without squaring the condition number.
-  Eigen::VectorXd cn = J.colwise().norm().transpose();
-  for (Eigen::Index i = 0; i < cn.size(); ++i) cn[i] = cn[i] > 0 ? cn[i] : 1.0;
-  const Eigen::MatrixXd Jn = J * cn.cwiseInverse().asDiagonal();
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Jn, Eigen::ComputeThinV);
-  const Eigen::VectorXd sv = svd.singularValues();
-  const double cutoff = 1e-7 * sv[0];
-  Eigen::MatrixXd covn = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(np), static_cast<Eigen::Index>(np));
-  std::vector<bool> unresolved(np, false);
-  for (Eigen::Index k = 0; k < sv.size(); ++k) {
-    const Eigen::VectorXd v = svd.matrixV().col(k);
-    if (sv[k] > cutoff) {
-      covn += v * v.transpose() / (sv[k] * sv[k]);
-    } else {
-      for (Eigen::Index i = 0; i < v.size(); ++i)
-        if (std::fabs(v[i]) > 0.05) unresolved[static_cast<size_t>(i)] = true;
-    }
-  }
-  const Eigen::MatrixXd cov = s2 * cn.cwiseInverse().asDiagonal() * covn * cn.cwiseInverse().asDiagonal();
-  const double cond = sv[sv.size() - 1] > 0 ? sv[0] / sv[sv.size() - 1] : INFINITY;
+  // The engine's covariance (identify.hpp): s^2 (J^T J)^+ by SVD, unresolved directions, and the
+  // inflation for a correlated residual.
+  const sma_host::Uncertainty unc = sma_host::uncertainty(J, fres);
+  const double inflate = unc.inflate;
+  const double cond = unc.condition;
+  const std::vector<bool>& unresolved = unc.unresolved;
+  const Eigen::MatrixXd& corr = unc.corr;
   std::vector<double> sigma(np), value(np), startv(np);
   for (size_t i = 0; i < np; ++i) {
     const Eigen::Index ii = static_cast<Eigen::Index>(i);
-    sigma[i] = unresolved[i] ? INFINITY : std::sqrt(std::max(0.0, cov(ii, ii)));
-    value[i] = *pb.specs[i].ref(fitted, pb.specs[i].index);
-    startv[i] = *pb.specs[i].ref(start, pb.specs[i].index);
+    (void)ii;
+    sigma[i] = unc.sigma[i];
+    const ParamSpec& sp = pb.specs[i];
+    value[i] = sp.ref ? *sp.ref(fitted, sp.index) : pb.model_for_run(fitted, x, static_cast<size_t>(sp.index)).fx.sensor_offset_mm;
+    startv[i] = sp.ref ? *sp.ref(start, sp.index) : start_offset(logs[static_cast<size_t>(sp.index)]);
   }
   for (size_t i = 0; i < np; ++i) {
     if (unresolved[i])
@@ -652,15 +722,6 @@ int run(int argc, char** argv) {
       notes.push_back(pb.specs[i].name + " moved from " + fmt(startv[i], 4) + " to " + fmt(value[i], 4) +
                       ": check the start values (R, d0, L0, T_amb) and that the log heats AND cools the wire");
   }
-  Eigen::MatrixXd corr = Eigen::MatrixXd::Identity(static_cast<Eigen::Index>(np), static_cast<Eigen::Index>(np));
-  for (size_t i = 0; i < np; ++i)
-    for (size_t j = 0; j < np; ++j) {
-      const Eigen::Index ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
-      if (i != j && !unresolved[i] && !unresolved[j] && cov(ii, ii) > 0 && cov(jj, jj) > 0)
-        corr(ii, jj) = cov(ii, jj) / std::sqrt(cov(ii, ii) * cov(jj, jj));
-      else if (i != j)
-        corr(ii, jj) = NAN;
-    }
   struct Pair {
     std::string a, b;
     double r;
@@ -693,45 +754,77 @@ int run(int argc, char** argv) {
   {
     ReplayOptions o;
     o.eps0 = eps0;
-    replay(fitted, log.t, log.v, o, trf);
+    replay(fitted, log.t, log.v, log.d, o, trf);
     Model st = start;
-    replay(st, log.t, log.v, o, trs);
+    replay(st, log.t, log.v, log.d, o, trs);
   }
   std::vector<double> rfull(log.size()), rstart(log.size());
   for (size_t k = 0; k < log.size(); ++k) {
-    rfull[k] = trf.y[k] - log.d[k];
-    rstart[k] = trs.y[k] - log.d[k];
+    rfull[k] = trf.d[k] - log.d[k];
+    rstart[k] = trs.d[k] - log.d[k];
   }
   const Stats full = stats_of(rfull), st0 = stats_of(rstart);
 
-  Validation val;
-  Trace trv, trv0;
-  RigLog vlog;
-  if (!val_path.empty()) {
-    vlog = read_rig_log(val_path, lro);
+  // The table of runs: each training run with its own fitted sensor zero, each validation run
+  // with a zero fitted alone (the least-squares offset of the fitted model on it, the one thing
+  // a new run may change); whole run, heating and cooling halves (the model's dT/dt).
+  std::vector<RunRow> table;
+  for (size_t r = 0; r < logs.size(); ++r) {
+    ReplayOptions o;
+    o.eps0 = eps0;
+    const Model m = pb.model_for_run(fitted, x, r);
+    const Trace tr = sma_host::replay(m, logs[r], o);
+    std::vector<double> res(logs[r].size());
+    for (size_t k = 0; k < res.size(); ++k) res[k] = logs[r].d[k] - tr.d[k];
+    table.push_back({logs[r].name, "training", m.fx.sensor_offset_mm, sma_host::run_errors(res, tr.T)});
+  }
+  std::vector<Validation> vals;
+  std::vector<RigLog> vlogs;
+  std::vector<Trace> trvs, trv0s;
+  for (const std::string& vp : val_paths) {
+    vlogs.push_back(read_rig_log(vp, lro));
+    const RigLog& vlog = vlogs.back();
     if (vlog.dropped) std::cerr << dropped_note(vlog) << "\n";
+    Validation val;
     val.name = vlog.name;
     val.rows = vlog.size();
     ReplayOptions o;
     o.eps0 = eps0;
-    replay(fitted, vlog.t, vlog.v, o, trv);
+    Trace trv = sma_host::replay(fitted, vlog, o);
     std::vector<double> r1(vlog.size()), r2(vlog.size());
     // Tared: the sensor zero of this run from its first samples, as a user zeroes the sensor.
     {
       const size_t nt = std::min<size_t>(vlog.size(), 50);
       double sum = 0;
-      for (size_t k = 0; k < nt; ++k) sum += vlog.d[k] - (trv.y[k] - fitted.fx.sensor_offset_mm);
+      for (size_t k = 0; k < nt; ++k) sum += vlog.d[k] - (trv.d[k] - fitted.fx.sensor_offset_mm);
       val.tare_offset = sum / static_cast<double>(nt);
     }
     for (size_t k = 0; k < vlog.size(); ++k) {
-      r1[k] = trv.y[k] - vlog.d[k];
-      r2[k] = trv.y[k] - fitted.fx.sensor_offset_mm + val.tare_offset - vlog.d[k];
+      r1[k] = trv.d[k] - vlog.d[k];
+      r2[k] = trv.d[k] - fitted.fx.sensor_offset_mm + val.tare_offset - vlog.d[k];
     }
     val.fitted_offset = stats_of(r1);
     val.tared = stats_of(r2);
+    // Its own zero, fitted alone: start at its first readings (the initial-state rule then
+    // starts the wire where it reads), then the least-squares offset of the whole run.
+    Model mv = fitted;
+    mv.fx.sensor_offset_mm = start_offset(vlog);
+    for (int it = 0; it < 2; ++it) {
+      trv = sma_host::replay(mv, vlog, o);
+      mv.fx.sensor_offset_mm += sma_host::best_offset(vlog.d, trv.d);
+    }
+    trv = sma_host::replay(mv, vlog, o);
+    std::vector<double> res(vlog.size());
+    for (size_t k = 0; k < res.size(); ++k) res[k] = vlog.d[k] - trv.d[k];
+    table.push_back({vlog.name, "validation", mv.fx.sensor_offset_mm, sma_host::run_errors(res, trv.T)});
     Model st = start;
-    replay(st, vlog.t, vlog.v, o, trv0);
+    st.fx.sensor_offset_mm = mv.fx.sensor_offset_mm;
+    trv0s.push_back(sma_host::replay(st, vlog, o));
+    trvs.push_back(trv);
+    vals.push_back(val);
   }
+  const Validation val = vals.empty() ? Validation() : vals[0];
+  const std::string val_path = val_paths.empty() ? "" : val_paths[0];
 
   // ---- outputs -----------------------------------------------------------------------------------
   make_dirs(out_dir);
@@ -741,8 +834,9 @@ int run(int argc, char** argv) {
     f << model_to_json(fitted);
   }
   write_curves(out_dir + "/fit_curves.csv", log, trf, trs, "sma_fit: training log " + log.name);
-  if (!val_path.empty())
-    write_curves(out_dir + "/validate_curves.csv", vlog, trv, trv0, "sma_fit: validation log " + vlog.name);
+  for (size_t i = 0; i < vlogs.size(); ++i)
+    write_curves(out_dir + (i ? "/validate_curves_" + std::to_string(i + 1) + ".csv" : "/validate_curves.csv"), vlogs[i],
+                 trvs[i], trv0s[i], "sma_fit: validation log " + vlogs[i].name);
 
   // Eigen's LevenbergMarquardtSpace::Status.
   std::string status_str;
@@ -799,7 +893,16 @@ int run(int argc, char** argv) {
         << json::number(val.fitted_offset.max) << ", \"rms_mm_tared\": " << json::number(val.tared.rms)
         << ", \"max_mm_tared\": " << json::number(val.tared.max) << ", \"tare_offset_mm\": "
         << json::number(val.tare_offset) << "}";
-    f << "\n}\n";
+    f << ",\n  \"runs\": [";
+    for (size_t i = 0; i < table.size(); ++i) {
+      const RunRow& r = table[i];
+      f << (i ? "," : "") << "\n    {\"log\": " << json::quote(r.log) << ", \"role\": " << json::quote(r.role)
+        << ", \"offset_mm\": " << json::number(r.offset_mm) << ", \"rms_mm\": " << json::number(r.e.all.rms)
+        << ", \"max_mm\": " << json::number(r.e.all.max) << ", \"rms_mm_heating\": " << json::number(r.e.heating.rms)
+        << ", \"max_mm_heating\": " << json::number(r.e.heating.max) << ", \"rms_mm_cooling\": "
+        << json::number(r.e.cooling.rms) << ", \"max_mm_cooling\": " << json::number(r.e.cooling.max) << "}";
+    }
+    f << "\n  ]\n}\n";
   }
   {
     std::ofstream f(out_dir + "/report.md");
@@ -822,6 +925,14 @@ int run(int argc, char** argv) {
       f << "| same, sensor tared on its first samples (offset " << fmt(val.tare_offset) << " mm) | "
         << fmt(val.tared.rms) << " | " << fmt(val.tared.max) << " |\n";
     }
+    f << "\n## Runs\n\nEach run with its own sensor zero (training runs: fitted with the wire; validation "
+      << "runs: fitted alone, the model otherwise unchanged). Heating / cooling: where the model's "
+      << "temperature rises / falls.\n\n| log | role | offset (mm) | RMS (mm) | max (mm) | RMS heating | "
+      << "max heating | RMS cooling | max cooling |\n|---|---|---|---|---|---|---|---|---|\n";
+    for (const RunRow& r : table)
+      f << "| `" << r.log << "` | " << r.role << " | " << fmt(r.offset_mm) << " | " << fmt(r.e.all.rms) << " | "
+        << fmt(r.e.all.max) << " | " << fmt(r.e.heating.rms) << " | " << fmt(r.e.heating.max) << " | "
+        << fmt(r.e.cooling.rms) << " | " << fmt(r.e.cooling.max) << " |\n";
     f << "\n## Parameters\n\n95 % intervals from covariance = s^2 (J^T J)^-1 (s = residual RMS, J the "
       << "Jacobian in physical units). The residual of neighbouring samples is correlated (lag-1 "
       << "autocorrelation " << fixed(fs.lag1, 3) << "), which makes these intervals optimistic: the last "
@@ -870,6 +981,13 @@ int run(int argc, char** argv) {
     std::cout << "  validation " << val.name << ": RMS " << fmt(val.fitted_offset.rms) << " mm, max "
               << fmt(val.fitted_offset.max) << " mm (tared: RMS " << fmt(val.tared.rms) << ", max "
               << fmt(val.tared.max) << ")\n";
+  if (table.size() > 1) {
+    std::printf("  %-32s %-10s %9s %9s %9s %9s %9s %9s\n", "run", "role", "RMS mm", "max mm", "RMS heat",
+                "max heat", "RMS cool", "max cool");
+    for (const RunRow& r : table)
+      std::printf("  %-32s %-10s %9.4f %9.4f %9.4f %9.4f %9.4f %9.4f\n", r.log.c_str(), r.role.c_str(), r.e.all.rms,
+                  r.e.all.max, r.e.heating.rms, r.e.heating.max, r.e.cooling.rms, r.e.cooling.max);
+  }
   for (const auto& n : notes) std::cout << "  note: " << n << "\n";
   std::cout << "  wrote " << out_dir << "/params.json, fit.json, report.md\n";
   return 0;

@@ -56,7 +56,8 @@ static const char* kUsage =
     "replay:\n"
     "  --replay LOG.csv       model output for the log's v_V: columns t_s,v_V,d_mm[,ref_mm,duty],\n"
     "                         d_model_mm,T_model_C,eps_model\n"
-    "  --eps0 X               austenite fraction at the start (default 0)\n"
+    "  --eps0 X               austenite fraction at the start (default: --replay: from the log's\n"
+    "                         first readings, the engine's initial-state rule; otherwise 0)\n"
     "  --tare                 shift the model's sensor zero to the log's first 50 samples (a\n"
     "                         potentiometer or laser zero differs from run to run)\n";
 
@@ -80,7 +81,7 @@ sma::Reference trajectory_from_csv(const std::string& path) {
 struct Options {
   std::string params, model_params, out, ref, volt, replay, mode = "ffpid", gains;
   std::vector<std::string> effects;
-  double noise = 0, adc = 0, dt = 0.01, v_supply = 5.0, duration = 0, eps0 = 0;
+  double noise = 0, adc = 0, dt = 0.01, v_supply = 5.0, duration = 0, eps0 = -1;
   unsigned long seed = 1;
   bool rig_like = false, tare = false;
   TrainingSignal train;
@@ -131,7 +132,7 @@ int run(int argc, char** argv) {
   if (modes != 1) throw Error("give exactly one of --ref, --volt, --replay (see --help)");
   if (!(o.dt > 0.0 && o.dt <= 1.0)) throw Error("--dt must be in 0..1 s");
   if (!(o.noise >= 0.0) || !(o.adc >= 0.0)) throw Error("--noise and --adc-step must be >= 0");
-  if (!(o.eps0 >= 0.0 && o.eps0 <= 1.0)) throw Error("--eps0 must be in 0..1");
+  if (o.eps0 != -1.0 && !(o.eps0 >= 0.0 && o.eps0 <= 1.0)) throw Error("--eps0 must be in 0..1");
 
   Model wire = read_model(o.params);
   for (const auto& e : o.effects) set_effect_arg(wire.fx, e);
@@ -158,15 +159,15 @@ int run(int argc, char** argv) {
     ReplayOptions ro;
     ro.eps0 = o.eps0;
     Trace tr;
-    replay(wire, log.t, log.v, ro, tr);
+    replay(wire, log.t, log.v, log.d, ro, tr);
     head << "# replay of " << log.name << " (" << log.size() << " rows, " << log.dropped
          << " dropped): model output for its v_V\n";
     if (o.tare) {
       const size_t nt = log.size() < 50 ? log.size() : 50;
       double shift = 0;
-      for (size_t k = 0; k < nt; ++k) shift += log.d[k] - tr.y[k];
+      for (size_t k = 0; k < nt; ++k) shift += log.d[k] - tr.d[k];
       shift /= static_cast<double>(nt);
-      for (double& y : tr.y) y += shift;
+      for (double& y : tr.d) y += shift;
       head << "# tared: model sensor zero shifted by " << fmt(shift, 5) << " mm\n";
     }
     body << "t_s,v_V,d_mm" << (log.has_ref() ? ",ref_mm" : "") << (log.has_duty() ? ",duty" : "")
@@ -175,7 +176,7 @@ int run(int argc, char** argv) {
       body << fmt(log.t[k], 4) << ',' << fmt(log.v[k], 5) << ',' << fmt(log.d[k], 5);
       if (log.has_ref()) body << ',' << fmt(log.ref[k], 5);
       if (log.has_duty()) body << ',' << fmt(log.duty[k], 6);
-      body << ',' << fmt(tr.y[k], 5) << ',' << fmt(tr.T[k], 4) << ',' << fmt(tr.eps[k], 6) << '\n';
+      body << ',' << fmt(tr.d[k], 5) << ',' << fmt(tr.T[k], 4) << ',' << fmt(tr.eps[k], 6) << '\n';
     }
   } else if (!o.volt.empty()) {
     Pwl sig;
@@ -218,12 +219,12 @@ int run(int argc, char** argv) {
     ro.noisy = true;
     ro.eps0 = o.eps0;
     Trace tr;
-    replay(wire, t, v, ro, tr);
+    replay(wire, t, v, {}, ro, tr);
     const double vs = rig.v_supply > 0 ? rig.v_supply : 5.0;
     body << "t_s,v_V,d_mm,duty,T_true_C,eps_true\n";
     for (size_t k = 0; k < t.size(); ++k) {
       const double duty = (v[k] / vs) * (v[k] / vs);
-      body << fmt(t[k], 4) << ',' << fmt(v[k], 6) << ',' << fmt(tr.y[k], 6) << ','
+      body << fmt(t[k], 4) << ',' << fmt(v[k], 6) << ',' << fmt(tr.d[k], 6) << ','
            << fmt(duty > 1.0 ? 1.0 : duty, 6) << ',' << fmt(tr.T[k], 4) << ',' << fmt(tr.eps[k], 6)
            << '\n';
     }

@@ -19,7 +19,9 @@
 #include <string.h>
 #include <Eigen/Dense>
 #include <algorithm>
+#include <atomic>
 #include <string>
+#include <thread>
 #include <unsupported/Eigen/NonLinearOptimization>
 #include <unsupported/Eigen/NumericalDiff>
 #include <vector>
@@ -27,15 +29,10 @@
 #include "sma/hysteresis.hpp"
 #include "sma/params.hpp"
 #include "sma/plant.hpp"
+#include "identify.hpp"
 #include "signals.hpp"
 
 namespace sma_host {
-
-// A rig log in memory (interfaces.md: t_s, v_V, d_mm).
-struct RigLog {
-  std::vector<double> t, v, d;
-  size_t size() const { return t.size(); }
-};
 
 // ---- the vocabulary as fit problems --------------------------------------------------------
 
@@ -143,43 +140,16 @@ inline const EffectSpec* find_effect(const std::string& name) {
 
 // ---- simulation ----------------------------------------------------------------------------
 
-// What the model says the sensor reads for the log's voltage history. The wire starts at rest:
-// at ambient if the first reading is near zero, else on the heating curve at the first
-// reading's fraction (a log that starts mid-transformation).
-// The model's states along a log, for the residual diagnosis and the plots.
-struct Trace {
-  std::vector<double> d, T, eps;  // sensor reading, wire temperature, austenite fraction
-};
-
-template <class Sink>
-void run_model(const sma::Params& p, const sma::Effects& fx, const RigLog& log, Sink sink) {
-  sma::Plant plant(p, fx);
-  const double d0 = log.size() ? (log.d[0] - fx.sensor_offset_mm) / fx.sensor_gain : 0.0;
-  const double eps0 = sma::clamp(d0 / p.g, 0.0, 1.0);
-  if (eps0 > 0.02) {
-    const sma::PhaseCurves<double> curves(p);
-    plant.reset(curves.heat_temperature(eps0), eps0);
-  }
-  for (size_t k = 0; k < log.size(); ++k) {
-    sink(k, plant);
-    if (k + 1 < log.size()) plant.step(log.v[k], log.t[k + 1] - log.t[k]);
-  }
-}
-
+// What the model says the sensor reads for the log's voltage history, and its states: the
+// engine's replay (identify.hpp) with its one initial-state rule.
 inline std::vector<double> predict(const sma::Params& p, const sma::Effects& fx, const RigLog& log) {
-  std::vector<double> out(log.size());
-  run_model(p, fx, log, [&](size_t k, const sma::Plant& plant) { out[k] = plant.measure_clean(); });
-  return out;
+  ReplayOptions o;
+  o.want_states = false;
+  return replay(Model{p, fx}, log, o).d;
 }
 
 inline Trace trace(const sma::Params& p, const sma::Effects& fx, const RigLog& log) {
-  Trace tr;
-  run_model(p, fx, log, [&](size_t, const sma::Plant& plant) {
-    tr.d.push_back(plant.measure_clean());
-    tr.T.push_back(plant.temperature());
-    tr.eps.push_back(plant.fraction());
-  });
-  return tr;
+  return replay(Model{p, fx}, log);
 }
 
 // A log simulated by the plant (for tests and demos): the voltage signal, hidden effects, noise.
@@ -199,15 +169,6 @@ inline RigLog simulate_log(const sma::Params& p, const sma::Effects& fx, const V
   return log;
 }
 
-// White-noise level of a log: robust (MAD) scale of successive differences / sqrt 2.
-inline double noise_level(const RigLog& log) {
-  std::vector<double> dd;
-  for (size_t k = 1; k < log.size(); ++k) dd.push_back(fabs(log.d[k] - log.d[k - 1]));
-  if (dd.empty()) return 0;
-  std::nth_element(dd.begin(), dd.begin() + static_cast<long>(dd.size() / 2), dd.end());
-  return dd[dd.size() / 2] / 0.6745 / sqrt(2.0);
-}
-
 // ---- fitting -------------------------------------------------------------------------------
 
 struct Options {
@@ -216,6 +177,7 @@ struct Options {
   double ambiguity = 0.05;  // runner-ups within this fraction of the winner's RMS are look-alikes
   int max_effects = 3;
   int max_residuals = 6000; // residuals per fit (the log is strided down to this)
+  int threads = 2;          // candidates fitted at once
   // Base parameters refitted jointly with every candidate (names of refittable_base()); empty:
   // the base model stays as given and only the effects are fitted.
   std::vector<const BaseSpec*> refit_base;
@@ -366,7 +328,7 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
   std::vector<size_t> all(log.size());
   for (size_t k = 0; k < all.size(); ++k) all[k] = k;
   out.rms_all = rms_on(pred, log, all);
-  // Confidence: covariance s^2 (J^T J)^-1 from a finite-difference Jacobian at the optimum.
+  // Confidence: from a finite-difference Jacobian at the optimum.
   if (f.n_in > 0) {
     Eigen::MatrixXd J(split.train.size(), f.n_in);
     Eigen::VectorXd r0(split.train.size()), r1(split.train.size());
@@ -378,9 +340,10 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
       f(xh, r1);
       J.col(c) = (r1 - r0) / h;
     }
-    const double dof = std::max<double>(1, static_cast<double>(split.train.size()) - f.n_in);
-    const Eigen::MatrixXd cov = (J.transpose() * J).completeOrthogonalDecomposition().pseudoInverse() *
-                                (r0.squaredNorm() / dof);
+    // The engine's covariance (identify.hpp), in the optimiser's scaled units. A parameter
+    // pinned at its bound (a zero column) gets no width here; the report warns about bounds.
+    const Uncertainty u = uncertainty(J, r0);
+    auto half = [&](int c, double scale) { return 1.96 * sqrt(fmax(u.cov(c, c), 0.0)) * scale; };
     j = 0;
     for (FittedEffect& e : effects)
       for (int i = 0; i < e.spec->n; ++i) {
@@ -388,15 +351,14 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
           e.ci95[i] = 0.0;  // held, not fitted
           continue;
         }
-        e.ci95[i] = 1.96 * sqrt(fmax(cov(j, j), 0.0)) * e.spec->scale[i];
+        e.ci95[i] = half(j, e.spec->scale[i]);
         ++j;
       }
-    for (size_t b = 0; b < base.size(); ++b, ++j)
-      out.base_ci95.push_back(1.96 * sqrt(fmax(cov(j, j), 0.0)) * base[b]->scale);
+    for (size_t b = 0; b < base.size(); ++b, ++j) out.base_ci95.push_back(half(j, base[b]->scale));
     for (int a = 0; a < f.n_in; ++a)
       for (int b = a + 1; b < f.n_in; ++b) {
-        const double c = cov(a, b) / sqrt(fmax(cov(a, a) * cov(b, b), 1e-300));
-        if (fabs(c) > out.max_corr) {
+        const double c = u.corr(a, b);
+        if (isfinite(c) && fabs(c) > out.max_corr) {
           out.max_corr = fabs(c);
           out.corr_pair = std::to_string(a) + "-" + std::to_string(b);
         }
@@ -404,6 +366,19 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
   }
   out.effects = effects;
   return out;
+}
+
+// Runs job(0..n-1) on up to `threads` threads (each job independent).
+template <class Job>
+void in_parallel(size_t n, int threads, Job job) {
+  std::atomic<size_t> next(0);
+  auto worker = [&]() {
+    for (size_t i = next++; i < n; i = next++) job(i);
+  };
+  std::vector<std::thread> pool;
+  for (int k = 1; k < threads && static_cast<size_t>(k) < n; ++k) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
 }
 
 // ---- selection -----------------------------------------------------------------------------
@@ -432,6 +407,7 @@ struct Diagnosis {
   sma::Params params;                     // final base model (refitted if Options::refit_base)
   std::vector<double> base_ci95;
   double rms_test_final = 0;              // held-out RMS of the final model
+  std::vector<std::string> at_bound;      // candidates not added: they ended at a bound
 };
 
 // BIC of a held-out residual with k extra parameters; n_eff discounts the autocorrelation of
@@ -481,6 +457,18 @@ inline sma::Params equivalent_base(const sma::Params& p, const EffectSpec& spec,
   return q.check() == nullptr ? q : p;
 }
 
+// True if a fitted parameter of `f` ends at its physical bound.
+inline bool at_bound(const FittedEffect& f) {
+  for (int i = 0; i < f.spec->n; ++i) {
+    const double tol = 1e-6 * (f.spec->hi[i] - f.spec->lo[i]);
+    if (f.value[i] <= f.spec->lo[i] + tol || f.value[i] >= f.spec->hi[i] - tol) {
+      const sma::Effects none;
+      if (f.value[i] != none.*(f.spec->field[i])) return true;  // a bound that is "no effect" is fine
+    }
+  }
+  return false;
+}
+
 // True if every parameter of `f` is at the value that means "no effect" (sma::Effects'
 // defaults), within its 95 % interval.
 inline bool at_neutral(const FittedEffect& f) {
@@ -508,11 +496,17 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
   while (static_cast<int>(current.effects.size()) < o.max_effects) {
     if (current.rms_test < 1.15 * d.noise_mm) break;  // nothing left above the noise
     std::vector<CandidateScore> scores;
+    std::vector<const EffectSpec*> todo;
     for (const EffectSpec& spec : vocabulary()) {
       bool have = std::find(idle.begin(), idle.end(), &spec) != idle.end();
       for (const FittedEffect& e : current.effects) have = have || e.spec == &spec;
-      if (have) continue;
-      progress(spec.name);
+      if (!have) todo.push_back(&spec);
+    }
+    for (const EffectSpec* spec : todo) progress(spec->name);
+    // The candidates are independent fits: o.threads of them at a time.
+    std::vector<CandidateScore> found(todo.size());
+    in_parallel(todo.size(), o.threads, [&](size_t c) {
+      const EffectSpec& spec = *todo[c];
       FitOutcome best;
       // Starts: the spec's values from two bases, the last round's (current.params) and the given
       // one (p): the base refit can land in another basin than the given fit's, and the effect's
@@ -541,12 +535,24 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
           if (f.rms_test < best.rms_test) best = f;
         }
       }
-      scores.push_back({spec.name, best.rms_test, best});
-    }
+      found[c] = {spec.name, best.rms_test, best};
+    });
+    scores = found;
     std::sort(scores.begin(), scores.end(),
               [](const CandidateScore& a, const CandidateScore& b) { return a.rms_test < b.rms_test; });
     if (scores.empty()) break;
-    const CandidateScore& win = scores[0];
+    // A candidate whose fitted parameter ends at its bound stands in for a larger model error
+    // (it is not a measurement of the effect): not credible, the next one is judged instead.
+    size_t w = 0;
+    while (w < scores.size() && at_bound(scores[w].fit.effects.back())) {
+      d.at_bound.push_back(scores[w].name);
+      ++w;
+    }
+    if (w == scores.size()) {
+      d.rejected = scores;
+      break;
+    }
+    const CandidateScore& win = scores[w];
     // Both tests on the held-out blocks; BIC charges the winner for its extra parameters.
     const bool clear_gain = win.rms_test < (1.0 - o.min_gain) * current.rms_test;
     const bool bic_better = bic(win.rms_test, n_eff, win.fit.effects.back().spec->n) < bic(current.rms_test, n_eff, 0);
@@ -567,7 +573,7 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
     step.added = win.fit.effects.back();
     step.rms_before = current.rms_all;
     step.rms_after = win.fit.rms_all;
-    for (size_t i = 1; i < scores.size(); ++i)
+    for (size_t i = w + 1; i < scores.size(); ++i)
       if (scores[i].rms_test < (1.0 + o.ambiguity) * win.rms_test) step.lookalikes.push_back(scores[i].name);
     step.candidates = scores;
     d.steps.push_back(step);

@@ -1,18 +1,12 @@
-// The one exception type of the host tools: a message meant for the user, already naming the
-// file (and line) and the problem. main() prints it and exits non-zero.
+// The host tools' exception type is the engine's (sma_host/error.hpp).
 #ifndef SMA_TOOLS_ERROR_HPP
 #define SMA_TOOLS_ERROR_HPP
 
-#include <stdexcept>
-#include <string>
+// Relative: the vrig and fuzz targets compile the readers with only this include directory.
+#include "../../../../host/include/sma_host/error.hpp"
 
 namespace sma_tools {
-
-class Error : public std::runtime_error {
- public:
-  explicit Error(const std::string& what) : std::runtime_error(what) {}
-};
-
+using sma_host::Error;
 }  // namespace sma_tools
 
 #endif  // SMA_TOOLS_ERROR_HPP

@@ -16,13 +16,11 @@
 #include "json.hpp"
 #include "sma/effects.hpp"
 #include "sma/params.hpp"
+#include "../../../../host/include/sma_host/model.hpp"  // relative: see error.hpp
 
 namespace sma_tools {
 
-struct Model {
-  sma::Params p;
-  sma::Effects fx;
-};
+using sma_host::Model;
 
 // The scalar keys of the contract, in the order of interfaces.md, with their field.
 struct ParamKey {

@@ -1,0 +1,359 @@
+// The identification engine shared by `tools/sma fit` (sma_fit), `tools/sma discrepancy`
+// (discrepancy.hpp) and `tools/sma sim --replay`: one way to run the model along a rig log,
+// one initial-state rule, one noise estimator, one covariance -> intervals / correlations, one
+// per-run sensor offset, one set of error statistics (whole run, heating and cooling halves).
+//
+//   log -> replay (the library's sma::Plant on the log's own v_V; no second copy of the model)
+//       -> residual over named parameters -> Levenberg-Marquardt (Eigen)
+//       -> uncertainty(J, r): s^2 (J^T J)^+ by SVD, 95 % intervals, correlations.
+#ifndef SMA_HOST_IDENTIFY_HPP
+#define SMA_HOST_IDENTIFY_HPP
+
+#include <math.h>
+#include <Eigen/Dense>
+#include <algorithm>
+#include <string>
+#include <vector>
+#include "error.hpp"
+#include "model.hpp"
+#include "rig_log.hpp"
+#include "sma/effects.hpp"
+#include "sma/hysteresis.hpp"
+#include "sma/params.hpp"
+#include "sma/plant.hpp"
+
+namespace sma_host {
+
+// The model's states along a log.
+struct Trace {
+  std::vector<double> d;    // what the sensor reports (clean unless noise asked), mm
+  std::vector<double> D;    // true displacement, mm
+  std::vector<double> T;    // wire temperature, deg C
+  std::vector<double> eps;  // austenite fraction
+};
+
+// ---- the initial-state rule ----------------------------------------------------------------
+// The wire is at rest when a log starts. Its austenite fraction is `eps0` when one is given
+// (>= 0), else the one the model's sensor reads at the log's start: the mean of the first
+// readings (up to 5), through the model's calibration backwards, eps = (d - offset) / gain / g,
+// clamped to 0..1; below 0.02 (noise, a sensor zero a little off) it is 0. At fraction 0 the
+// wire is at the ambient temperature T_amb (+ ambient_offset_K); at a fraction > 0 it sits on
+// the major heating curve at that fraction (eq 15): a wire heated there and held.
+inline double initial_fraction(const Model& m, const std::vector<double>& d, double eps0 = -1.0) {
+  if (eps0 >= 0.0) return sma::clamp(eps0, 0.0, 1.0);
+  if (d.empty()) return 0.0;
+  const size_t n = std::min<size_t>(d.size(), 5);
+  double d0 = 0.0;
+  for (size_t k = 0; k < n; ++k) d0 += d[k] / static_cast<double>(n);
+  const double eps = sma::clamp((d0 - m.fx.sensor_offset_mm) / m.fx.sensor_gain / m.p.g, 0.0, 1.0);
+  return eps > 0.02 ? eps : 0.0;
+}
+
+inline void reset_to_initial_state(sma::Plant& plant, const Model& m, double eps) {
+  if (eps > 0.0) {
+    const sma::PhaseCurves<double> curves(m.p);
+    plant.reset(curves.heat_temperature(eps), eps);
+  } else {
+    plant.reset(m.p.T_amb + m.fx.ambient_offset_K, 0.0);
+  }
+}
+
+// ---- per-run sensor offset -----------------------------------------------------------------
+// The least-squares sensor zero of one run for a model: mean(measured - model). A potentiometer's
+// zero moves between runs; this is the offset "fitted alone" on a run the model was not fitted on.
+inline double best_offset(const std::vector<double>& measured, const std::vector<double>& model) {
+  double s = 0.0;
+  for (size_t k = 0; k < measured.size(); ++k) s += measured[k] - model[k];
+  return measured.empty() ? 0.0 : s / static_cast<double>(measured.size());
+}
+
+struct ReplayOptions {
+  sma::RigOptions rig;  // noise etc.; v_supply is raised to the log's largest V (no clamping)
+  bool noisy = false;   // measure() (noise, ADC step) instead of measure_clean()
+  double eps0 = -1.0;   // fraction at the start; < 0: from the log's first readings (the rule)
+  size_t stride = 1;    // record every stride-th row (the simulation runs all rows)
+  bool want_states = true;
+};
+
+// Row k of a rig log holds the displacement measured at t_k and the voltage applied from t_k
+// to t_{k+1} (as the firmware logs it: measure, compute, apply). `d` is the log's displacement
+// (for the initial-state rule; may be empty: fraction 0 unless eps0 is given).
+template <class Sink>
+void run_model(const Model& m, const std::vector<double>& t, const std::vector<double>& v,
+               const std::vector<double>& d, const ReplayOptions& o, Sink sink) {
+  sma::RigOptions rig = o.rig;
+  double vmax = 0.0;
+  for (double x : v) vmax = fabs(x) > vmax ? fabs(x) : vmax;
+  if (vmax * 1.0001 > rig.v_supply) rig.v_supply = vmax * 1.0001;  // the plant clamps V to it
+  sma::Plant plant(m.p, m.fx, rig);
+  reset_to_initial_state(plant, m, initial_fraction(m, d, o.eps0));
+  for (size_t k = 0; k < t.size(); ++k) {
+    sink(k, plant);
+    if (k + 1 < t.size()) plant.step(v[k], t[k + 1] - t[k]);
+  }
+}
+
+inline void replay(const Model& m, const std::vector<double>& t, const std::vector<double>& v,
+                   const std::vector<double>& d, const ReplayOptions& o, Trace& out) {
+  const size_t stride = o.stride ? o.stride : 1;
+  const size_t nout = (t.size() + stride - 1) / stride;
+  out.d.assign(nout, 0.0);
+  out.D.assign(o.want_states ? nout : 0, 0.0);
+  out.T.assign(o.want_states ? nout : 0, 0.0);
+  out.eps.assign(o.want_states ? nout : 0, 0.0);
+  run_model(m, t, v, d, o, [&](size_t k, sma::Plant& plant) {
+    if (k % stride) return;
+    const size_t j = k / stride;
+    out.d[j] = o.noisy ? plant.measure() : plant.measure_clean();
+    if (o.want_states) {
+      out.D[j] = plant.displacement();
+      out.T[j] = plant.temperature();
+      out.eps[j] = plant.fraction();
+    }
+  });
+}
+
+// A log of several runs (concatenate below): each run is replayed on its own. The first starts
+// by the rule above; each later run starts at rest at the ambient temperature (fraction 0) and
+// reads through its own sensor zero: the model's output on it is shifted by the least-squares
+// offset of that run (a potentiometer's zero moves between runs).
+inline Trace replay(const Model& m, const RigLog& log, const ReplayOptions& o = ReplayOptions()) {
+  Trace tr;
+  if (log.run_starts.empty()) {
+    replay(m, log.t, log.v, log.d, o, tr);
+    return tr;
+  }
+  const size_t stride = o.stride ? o.stride : 1;
+  std::vector<size_t> bounds = {0};
+  for (size_t s : log.run_starts) bounds.push_back(s);
+  bounds.push_back(log.size());
+  for (size_t r = 0; r + 1 < bounds.size(); ++r) {
+    const size_t a = bounds[r], b = bounds[r + 1];
+    ReplayOptions ro = o;
+    ro.stride = 1;
+    if (r > 0) ro.eps0 = 0.0;
+    Trace part;
+    const std::vector<double> t(log.t.begin() + static_cast<long>(a), log.t.begin() + static_cast<long>(b));
+    const std::vector<double> v(log.v.begin() + static_cast<long>(a), log.v.begin() + static_cast<long>(b));
+    const std::vector<double> d(log.d.begin() + static_cast<long>(a), log.d.begin() + static_cast<long>(b));
+    replay(m, t, v, d, ro, part);
+    if (r > 0) {
+      const double c = best_offset(d, part.d);
+      for (double& y : part.d) y += c;
+    }
+    for (size_t k = a; k < b; ++k) {
+      if (k % stride) continue;
+      tr.d.push_back(part.d[k - a]);
+      if (o.want_states) {
+        tr.D.push_back(part.D[k - a]);
+        tr.T.push_back(part.T[k - a]);
+        tr.eps.push_back(part.eps[k - a]);
+      }
+    }
+  }
+  return tr;
+}
+
+// Several runs of one rig as one log: times shifted so they keep increasing (one sample period
+// between runs), run_starts marking where each later run begins.
+inline RigLog concatenate(const std::vector<const RigLog*>& logs) {
+  RigLog all;
+  if (logs.empty()) return all;
+  all.name = logs[0]->name;
+  all.columns = logs[0]->columns;
+  for (const RigLog* l : logs) {
+    const double shift = all.t.empty() ? 0.0 : all.t.back() + l->sample_period() - l->t.front();
+    if (!all.t.empty()) {
+      all.run_starts.push_back(all.t.size());
+      all.name += "+" + l->name;
+    }
+    all.run_names.push_back(l->name);
+    for (size_t k = 0; k < l->size(); ++k) {
+      all.t.push_back(l->t[k] + shift);
+      all.v.push_back(l->v[k]);
+      all.d.push_back(l->d[k]);
+    }
+    all.rows_read += l->rows_read;
+    all.dropped += l->dropped;
+  }
+  return all;
+}
+
+// ---- noise ---------------------------------------------------------------------------------
+// White displacement noise of a log from its second differences (a slow signal cancels in
+// them): median |N(0, 6 s^2)| = 0.6745 sqrt(6) s.
+inline double noise_level(const std::vector<double>& d) {
+  if (d.size() < 10) return 0.0;
+  std::vector<double> dd;
+  for (size_t k = 2; k < d.size(); ++k) dd.push_back(fabs(d[k] - 2 * d[k - 1] + d[k - 2]));
+  std::nth_element(dd.begin(), dd.begin() + static_cast<long>(dd.size() / 2), dd.end());
+  return dd[dd.size() / 2] / (0.6745 * sqrt(6.0));
+}
+inline double noise_level(const RigLog& log) { return noise_level(log.d); }
+
+// ---- error statistics: whole run, heating and cooling halves ---------------------------------
+struct ErrorStats {
+  double rms = 0, max = 0;
+  size_t n = 0;
+};
+struct RunErrors {
+  ErrorStats all, heating, cooling;  // heating: the model's temperature rises, cooling: it falls
+};
+
+// residual r = measured - model; T: the model's temperature (for the halves).
+inline RunErrors run_errors(const std::vector<double>& r, const std::vector<double>& T) {
+  RunErrors e;
+  double s[3] = {0, 0, 0};
+  ErrorStats* out[3] = {&e.all, &e.heating, &e.cooling};
+  auto add = [&](int i, double x) {
+    s[i] += x * x;
+    out[i]->n += 1;
+    out[i]->max = std::max(out[i]->max, fabs(x));
+  };
+  for (size_t k = 0; k < r.size(); ++k) {
+    add(0, r[k]);
+    if (T.size() != r.size()) continue;
+    const size_t a = k ? k - 1 : 0, b = k + 1 < T.size() ? k + 1 : k;
+    add(T[b] - T[a] >= 0.0 ? 1 : 2, r[k]);
+  }
+  for (int i = 0; i < 3; ++i) {  // a half the run does not have: NaN (null in JSON, "-" in tables)
+    out[i]->rms = out[i]->n ? sqrt(s[i] / static_cast<double>(out[i]->n)) : NAN;
+    if (!out[i]->n) out[i]->max = NAN;
+  }
+  return e;
+}
+
+// ---- uncertainty from the Jacobian ---------------------------------------------------------
+// cov = s^2 (J^T J)^+ with J in physical units, computed from the SVD of the column-normalised J
+// (without squaring its condition number); a direction with a singular value below 1e-7 of the
+// largest carries no information: the parameters in it are "unresolved" (interval infinite).
+// The residual of neighbouring samples is correlated (model error), which makes the intervals
+// optimistic by about sqrt((1 + rho) / (1 - rho)) for a lag-1 autocorrelation rho: `inflate`.
+struct Uncertainty {
+  Eigen::MatrixXd cov, corr;
+  std::vector<double> sigma;     // standard deviations, physical units (inf: unresolved)
+  std::vector<bool> unresolved;
+  double condition = 0, lag1 = 0, inflate = 1;
+  double ci95(size_t i) const { return 1.959964 * sigma[i]; }
+  double ci95_inflated(size_t i) const { return 1.959964 * sigma[i] * inflate; }
+};
+
+inline double lag1_autocorrelation(const Eigen::VectorXd& r) {
+  if (r.size() < 3) return 0.0;
+  const double mean = r.mean();
+  double num = 0, den = 0;
+  for (Eigen::Index k = 0; k < r.size(); ++k) {
+    den += (r[k] - mean) * (r[k] - mean);
+    if (k) num += (r[k] - mean) * (r[k - 1] - mean);
+  }
+  return den > 0 ? num / den : 0.0;
+}
+
+inline Uncertainty uncertainty(const Eigen::MatrixXd& J, const Eigen::VectorXd& r) {
+  Uncertainty u;
+  const Eigen::Index np = J.cols();
+  const double m = static_cast<double>(r.size());
+  const double s2 = r.squaredNorm() / std::max(1.0, m - static_cast<double>(np));
+  u.lag1 = lag1_autocorrelation(r);
+  const double rho = std::min(0.99, std::max(0.0, u.lag1));
+  u.inflate = sqrt((1 + rho) / (1 - rho));
+  u.cov = Eigen::MatrixXd::Zero(np, np);
+  u.corr = Eigen::MatrixXd::Identity(np, np);
+  u.unresolved.assign(static_cast<size_t>(np), false);
+  u.sigma.assign(static_cast<size_t>(np), 0.0);
+  if (np == 0) return u;
+  Eigen::VectorXd cn = J.colwise().norm().transpose();
+  for (Eigen::Index i = 0; i < np; ++i) {
+    if (!(cn[i] > 0)) {
+      u.unresolved[static_cast<size_t>(i)] = true;
+      cn[i] = 1.0;
+    }
+  }
+  const Eigen::MatrixXd Jn = J * cn.cwiseInverse().asDiagonal();
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Jn, Eigen::ComputeThinV);
+  const Eigen::VectorXd sv = svd.singularValues();
+  const double cutoff = 1e-7 * sv[0];
+  Eigen::MatrixXd covn = Eigen::MatrixXd::Zero(np, np);
+  for (Eigen::Index k = 0; k < sv.size(); ++k) {
+    const Eigen::VectorXd vk = svd.matrixV().col(k);
+    if (sv[k] > cutoff) {
+      covn += vk * vk.transpose() / (sv[k] * sv[k]);
+    } else {
+      for (Eigen::Index i = 0; i < np; ++i)
+        if (fabs(vk[i]) > 0.05) u.unresolved[static_cast<size_t>(i)] = true;
+    }
+  }
+  u.cov = s2 * cn.cwiseInverse().asDiagonal() * covn * cn.cwiseInverse().asDiagonal();
+  u.condition = sv[sv.size() - 1] > 0 ? sv[0] / sv[sv.size() - 1] : INFINITY;
+  for (Eigen::Index i = 0; i < np; ++i) {
+    const size_t ii = static_cast<size_t>(i);
+    u.sigma[ii] = u.unresolved[ii] ? INFINITY : sqrt(std::max(0.0, u.cov(i, i)));
+    for (Eigen::Index j = 0; j < np; ++j) {
+      if (i == j) continue;
+      const size_t jj = static_cast<size_t>(j);
+      u.corr(i, j) = (!u.unresolved[ii] && !u.unresolved[jj] && u.cov(i, i) > 0 && u.cov(j, j) > 0)
+                         ? u.cov(i, j) / sqrt(u.cov(i, i) * u.cov(j, j))
+                         : NAN;
+    }
+  }
+  return u;
+}
+
+// ---- several logs at once: what must agree ---------------------------------------------------
+// Logs fitted together must have the same sample rate (within 2 %) and the same column set:
+// they are refused, naming the log that differs, rather than silently resampled (the residuals
+// of a faster log would outweigh the others, and a missing column means another rig set-up).
+inline void check_compatible(const std::vector<const RigLog*>& logs) {
+  if (logs.size() < 2) return;
+  const RigLog& a = *logs[0];
+  const double dt0 = a.sample_period();
+  for (size_t i = 1; i < logs.size(); ++i) {
+    const RigLog& b = *logs[i];
+    const double dt = b.sample_period();
+    if (fabs(dt - dt0) > 0.02 * dt0)
+      throw Error(b.name + ": sampled every " + std::to_string(dt * 1000.0) + " ms, but " + a.name + " every " +
+                  std::to_string(dt0 * 1000.0) +
+                  " ms: logs fitted together must have one sample rate (refused, not resampled: resample "
+                  "the log yourself, or fit it alone)");
+    std::vector<std::string> ca = a.columns, cb = b.columns;
+    std::sort(ca.begin(), ca.end());
+    std::sort(cb.begin(), cb.end());
+    if (ca != cb) {
+      std::string sa, sb;
+      for (const std::string& c : a.columns) sa += (sa.empty() ? "" : ",") + c;
+      for (const std::string& c : b.columns) sb += (sb.empty() ? "" : ",") + c;
+      throw Error(b.name + ": columns " + sb + " differ from " + a.name + "'s (" + sa +
+                  "): logs fitted together must come from one rig set-up with one column set");
+    }
+  }
+}
+
+// True if the log shows the wire cooling back: the measured position (averaged over 0.5 s) falls
+// from its running peak by at least `min_drop` of the log's stroke (1st..99th percentile), i.e.
+// part of the reverse transformation was recorded. From the data, not from a start model (a bad
+// start model may never cool on the log's voltage). Without it the cooling parameters (T_MF, q,
+// e, T_MSs, T_MSf, loops) have nothing to be fitted on.
+inline bool cools_in_log(const RigLog& log, double min_drop = 0.2) {
+  const size_t n = log.size();
+  if (n < 3) return false;
+  std::vector<double> sorted = log.d;
+  std::sort(sorted.begin(), sorted.end());
+  const double span = sorted[(n - 1) * 99 / 100] - sorted[(n - 1) / 100];
+  if (!(span > 0)) return false;
+  const double dt = log.sample_period();
+  const size_t w = std::max<size_t>(1, dt > 0 ? static_cast<size_t>(0.5 / dt) : 1);
+  double sum = 0, peak = -INFINITY;
+  for (size_t k = 0; k < n; ++k) {
+    sum += log.d[k];
+    if (k >= w) sum -= log.d[k - w];
+    if (k + 1 < w) continue;
+    const double avg = sum / static_cast<double>(w);
+    peak = std::max(peak, avg);
+    if (peak - avg >= min_drop * span) return true;
+  }
+  return false;
+}
+
+}  // namespace sma_host
+
+#endif  // SMA_HOST_IDENTIFY_HPP

@@ -1,0 +1,120 @@
+// The identification engine's pieces (identify.hpp, residual_analysis.hpp) against what they
+// must be by statistics and physics: the covariance of a straight-line fit, the initial-state
+// rule, several runs with their own sensor zero, the heating / cooling halves, and a residual
+// that follows the wire temperature.
+#include <gtest/gtest.h>
+#include "sma_host/discrepancy.hpp"
+#include "sma_host/identify.hpp"
+#include "sma_host/residual_analysis.hpp"
+
+namespace {
+using namespace sma_host;
+}  // namespace
+
+TEST(Identify, UncertaintyOfAStraightLineIsTheTextbookOne) {
+  // y = a + b x with residual r: var(b) = s^2 / Sxx, var(a) = s^2 (1/n + mean^2 / Sxx).
+  const int n = 200;
+  Eigen::MatrixXd J(n, 2);
+  Eigen::VectorXd r(n);
+  double mean = 0, sxx = 0;
+  for (int k = 0; k < n; ++k) {
+    const double x = 0.1 * k;
+    J(k, 0) = 1.0;
+    J(k, 1) = x;
+    r[k] = (k % 2 ? 0.01 : -0.01);  // |r| = 0.01, no lag-1 correlation to speak of (alternating)
+    mean += x / n;
+  }
+  for (int k = 0; k < n; ++k) sxx += (0.1 * k - mean) * (0.1 * k - mean);
+  const double s2 = r.squaredNorm() / (n - 2);
+  const Uncertainty u = uncertainty(J, r);
+  EXPECT_NEAR(u.sigma[1], sqrt(s2 / sxx), 1e-9);
+  EXPECT_NEAR(u.sigma[0], sqrt(s2 * (1.0 / n + mean * mean / sxx)), 1e-9);
+  EXPECT_FALSE(u.unresolved[0] || u.unresolved[1]);
+  // A column that repeats another: the direction is not resolved, the interval is infinite.
+  Eigen::MatrixXd J2(n, 2);
+  J2.col(0) = J.col(1);
+  J2.col(1) = 2.0 * J.col(1);
+  const Uncertainty u2 = uncertainty(J2, r);
+  EXPECT_TRUE(u2.unresolved[0] && u2.unresolved[1]);
+  EXPECT_TRUE(std::isinf(u2.sigma[0]));
+}
+
+TEST(Identify, InitialStateRuleReadsTheFractionThroughTheCalibration) {
+  Model m;
+  m.fx.sensor_offset_mm = 0.3;
+  m.fx.sensor_gain = 1.2;
+  const double g = m.p.g;
+  EXPECT_NEAR(initial_fraction(m, std::vector<double>(10, 0.3 + 1.2 * 0.5 * g)), 0.5, 1e-12);
+  EXPECT_EQ(initial_fraction(m, std::vector<double>(10, 0.3 + 1.2 * 0.01 * g)), 0.0);  // noise: cold
+  EXPECT_EQ(initial_fraction(m, std::vector<double>(10, 5.0), 0.25), 0.25);             // given: kept
+  // A wire started at half transformation on the heating curve reads half the stroke at once.
+  RigLog log;
+  for (int k = 0; k < 100; ++k) {
+    log.t.push_back(0.01 * k);
+    log.v.push_back(0.0);
+    log.d.push_back(0.3 + 1.2 * 0.5 * g);
+  }
+  const Trace tr = replay(m, log);
+  EXPECT_NEAR(tr.eps[0], 0.5, 1e-9);
+  EXPECT_NEAR(tr.d[0], log.d[0], 1e-9);
+  EXPECT_GT(tr.T[0], m.p.T_AS);
+}
+
+TEST(Identify, SeveralRunsEachReadThroughTheirOwnZero) {
+  const sma::Params p;
+  RigLog a = simulate_log(p, sma::Effects(), default_steps(), 0.0, 1);
+  RigLog b = a;
+  for (double& d : b.d) d += 0.4;  // the potentiometer's zero moved
+  a.name = "a.csv";
+  b.name = "b.csv";
+  const RigLog both = concatenate({&a, &b});
+  ASSERT_EQ(both.run_starts.size(), 1u);
+  EXPECT_EQ(both.run_starts[0], a.size());
+  for (size_t k = 1; k < both.size(); ++k) ASSERT_GT(both.t[k], both.t[k - 1]);
+  const Trace tr = replay(Model{p, sma::Effects()}, both);
+  double worst = 0;
+  for (size_t k = 0; k < both.size(); ++k) worst = fmax(worst, fabs(tr.d[k] - both.d[k]));
+  EXPECT_LT(worst, 1e-6);  // the same wire: each run explained, the second with its zero
+  // Logs of another rate are refused, naming the log.
+  RigLog half;
+  half.name = "half.csv";
+  for (size_t k = 0; k < a.size(); k += 2) {
+    half.t.push_back(a.t[k]);
+    half.v.push_back(a.v[k]);
+    half.d.push_back(a.d[k]);
+  }
+  try {
+    check_compatible({&a, &half});
+    FAIL() << "another sample rate was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("half.csv"), std::string::npos);
+  }
+}
+
+TEST(Identify, HeatingAndCoolingHalvesFollowTheTemperature) {
+  // T rises to its peak at sample 100 then falls; residual 1 up to the peak, 3 after it (the
+  // peak itself, where the rate is 0, counts as heating).
+  std::vector<double> T, r;
+  for (int k = 0; k < 200; ++k) {
+    T.push_back(k <= 100 ? k : 200 - k);
+    r.push_back(k <= 100 ? 1.0 : 3.0);
+  }
+  const RunErrors e = run_errors(r, T);
+  EXPECT_NEAR(e.heating.rms, 1.0, 1e-12);
+  EXPECT_NEAR(e.cooling.rms, 3.0, 1e-12);
+  EXPECT_NEAR(e.all.rms, sqrt((101 * 1.0 + 99 * 9.0) / 200), 1e-12);
+  EXPECT_EQ(e.heating.n + e.cooling.n, e.all.n);
+}
+
+TEST(Identify, ResidualThatFollowsTheTemperatureIsNamed) {
+  const sma::Params p;
+  const RigLog log = simulate_log(p, sma::Effects(), default_steps(), 0.0, 1);
+  const Trace tr = trace(p, sma::Effects(), log);
+  std::vector<double> r(log.size());
+  for (size_t k = 0; k < r.size(); ++k) r[k] = -0.005 * (tr.T[k] - p.T_amb);  // a frame expanding with T
+  const ResidualAnalysis a = analyse_residual(log, tr, r);
+  ASSERT_EQ(a.states.size(), 6u);
+  EXPECT_EQ(a.follows, "T");
+  EXPECT_GT(a.states[0].r2_linear, 0.99);
+  EXPECT_NEAR(a.states[0].slope, -0.005, 1e-6);
+}
