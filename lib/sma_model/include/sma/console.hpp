@@ -335,7 +335,9 @@ class LineBuffer {
   uint8_t length() const { return done_len_; }
 
  private:
-  char buf_[kLineMax + 1] = {};
+  // Not zeroed at construction (48 stores of flash on AVR): line() is read only after a Line,
+  // which 0-terminates it.
+  char buf_[kLineMax + 1];
   uint8_t len_ = 0, done_len_ = 0;
   bool too_long_ = false, binary_ = false, last_was_cr_ = false;
 };
