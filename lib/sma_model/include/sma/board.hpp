@@ -245,6 +245,7 @@ class Board {
     lim.v_max = Rig::v_max();
     lim.model = Rig::model();
     lim.train = Rig::train();
+    lim.single = true;
     return lim;
   }
   bool training() const { return training_; }
@@ -408,7 +409,15 @@ class Board {
   }
 
   SMA_NOINLINE void start_training(double slope) {
-    TrainingPlan* plan = new (&gen_.train.plan) TrainingPlan();
+    TrainingPlan* plan = &gen_.train.plan;
+#if defined(__AVR__)
+    // The paper's plan copied from flash: constructed, its arrays' initial values would sit in
+    // .data (80 B of RAM for good).
+    static const TrainingPlan kPlan PROGMEM = TrainingPlan();
+    memcpy_P(plan, &kPlan, sizeof(TrainingPlan));
+#else
+    new (plan) TrainingPlan();
+#endif
     if (slope > 0.0) plan->slope = slope;
     gen_.train.end_ticks = static_cast<uint32_t>(plan->duration() * Rig::tick_hz()) + 1u;
     training_ = true;
