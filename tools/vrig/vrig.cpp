@@ -27,7 +27,7 @@
 
 #include "rig_board.h"
 #include "sma/board.hpp"
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 #include "sma_tools/params_json.hpp"
 
 extern "C" {

@@ -26,7 +26,7 @@
 #include "sma/effects.hpp"
 #include "sma/hysteresis.hpp"
 #include "sma/params.hpp"
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 #include "signals.hpp"
 
 namespace sma_host {

@@ -8,7 +8,7 @@
 #include <memory>
 #include <vector>
 #include "params_json.hpp"
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 
 namespace sma_tools {
 
