@@ -7,6 +7,7 @@
   sma discrepancy LOG.csv --out DIR   missing effects of the model (sma_discrepancy)
   sma console --port PORT        the board's serial console: commands, status, recording
   sma upload PARAMS.json --port PORT   model parameters into the board's EEPROM, verified
+  sma download --port PORT -o F.json  the board's active model as a params JSON
 """
 import argparse
 import os
@@ -36,6 +37,12 @@ def cmd_upload(args):
     from . import upload
 
     return upload.run(args)
+
+
+def cmd_download(args):
+    from . import download
+
+    return download.run(args)
 
 
 def cmd_build(args):
@@ -177,6 +184,15 @@ def make_parser():
     u.add_argument("--baud", type=int, default=115200)
     u.add_argument("--timeout", type=float, default=2.0, help="reply timeout (s) of pget/pinfo")
     u.add_argument("--stop", action="store_true", help="send stop first (heater off)")
+    dl = sub.add_parser("download", help="the board's active model as a params JSON (restore with upload)",
+                        description="Reads every key of the board's active model with pget (the stored "
+                                    "float32 bits, exactly) and writes it as a params JSON (interfaces.md), "
+                                    "which `sma upload` restores. Exit codes: 0 ok, 1 ERR/bad answer/bad set, "
+                                    "2 port, 3 link lost, 4 no reply.")
+    dl.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyACM0, /tmp/simavr-uart0")
+    dl.add_argument("-o", "--output", required=True, metavar="FILE.json")
+    dl.add_argument("--baud", type=int, default=115200)
+    dl.add_argument("--timeout", type=float, default=2.0, help="reply timeout (s)")
     return p
 
 
@@ -192,4 +208,4 @@ def main(argv=None):
         p.print_help()
         return 2
     return {"build": cmd_build, "fit": cmd_fit, "plot": cmd_plot, "console": cmd_console,
-            "upload": cmd_upload}[args.command](args)
+            "upload": cmd_upload, "download": cmd_download}[args.command](args)
