@@ -75,6 +75,7 @@ struct Options {
   std::string params;                   // --params FILE.json: the plant's wire (interfaces.md)
   std::vector<std::string> effect_args;  // --effect, applied after --params
   std::string eeprom;                   // --eeprom FILE: the AVR's EEPROM, loaded and saved
+  std::string truth;                    // --truth FILE: t_s,true_mm of the plant every 10 ms
   double fault_at = -1.0, fault_mv = 5000.0;  // sensor loss injection
   double flood_from = -1.0, flood_to = -1.0;  // input flood
   bool wdrf = false;                          // start as after a watchdog reset
@@ -100,6 +101,8 @@ void usage() {
           "  --effect NAME.PARAM=V  hidden plant effect, vocabulary names, e.g.\n"
           "                      sensor_delay.delay_s=0.05 (after --params; the old field form\n"
           "                      sensor_delay_s=0.05 ... latent_heat_J=V still works)\n"
+          "  --truth FILE        the wire's true displacement (t_s,true_mm every 10 ms: no sensor\n"
+          "                      effect, no noise), for tracking metrics under sensor effects\n"
           "  --eeprom FILE       the AVR's 1 KB EEPROM: read at start if FILE exists, written at\n"
           "                      the end (model parameters survive between runs)\n"
           "  --sensor-fault T[:MV]  from T s on, drive ADC0 to MV millivolts (default 5000)\n"
@@ -341,6 +344,12 @@ struct Rig {
   Options opt;
   avr_t* avr = nullptr;
   sma::Plant* plant = nullptr;
+  FILE* truth = nullptr;  // --truth
+  long plant_ms = 0;
+  // The wire's true displacement (no sensor effect, no noise) every 10 ms of plant time.
+  void write_truth(double t) {
+    if (truth && plant_ms++ % 10 == 0) fprintf(truth, "%.3f,%.6f\n", t, plant->displacement());
+  }
   avr_irq_t* adc0 = nullptr;
   avr_irq_t* uart_in = nullptr;
   bool xon = true;
@@ -395,6 +404,7 @@ struct Rig {
     const double t = now();
     const double v = RIG_V_SUPPLY * sqrt(duty());
     plant->step(v, kPlantDt);
+    write_truth(t + kPlantDt);
     double mv = sensor_mv(plant->measure());
     if (opt.fault_at >= 0 && t >= opt.fault_at) mv = opt.fault_mv;
     avr_raise_irq(adc0, static_cast<uint32_t>(mv + 0.5));
@@ -697,6 +707,7 @@ int run_native(Rig& rig) {
     uint8_t n = 0, bad = 0;
     for (int j = 0; j < sub; ++j) {
       rig.plant->step(v_applied, kPlantDt);
+      rig.write_truth(t + (j + 1) * kPlantDt);
       double mv = sensor_mv(rig.plant->measure());
       if (rig.opt.fault_at >= 0 && t >= rig.opt.fault_at) mv = rig.opt.fault_mv;
       double c = floor(mv / 5000.0 * 1024.0);
@@ -747,7 +758,9 @@ int main(int argc, char** argv) {
     else if (a == "--seed") o.seed = strtoull(val(), nullptr, 10);
     else if (a == "--effect") o.effect_args.push_back(val());
     else if (a == "--params") o.params = val();
-    else if (a == "--eeprom") o.eeprom = val(); else if (a == "--sensor-fault") {
+    else if (a == "--eeprom") o.eeprom = val();
+    else if (a == "--truth") o.truth = val();
+    else if (a == "--sensor-fault") {
       const char* s = val();
       o.fault_at = atof(s);
       if (const char* c = strchr(s, ':')) o.fault_mv = atof(c + 1);
@@ -814,6 +827,14 @@ int main(int argc, char** argv) {
     }
     fprintf(rig.out.log, "# rig: vrig %s noise_mm=%g\n", o.native ? "native" : o.elf.c_str(), o.noise_mm);
   }
+  if (!o.truth.empty()) {
+    rig.truth = fopen(o.truth.c_str(), "w");
+    if (!rig.truth) {
+      fprintf(stderr, "vrig: cannot write %s\n", o.truth.c_str());
+      return 2;
+    }
+    fprintf(rig.truth, "t_s,true_mm\n");
+  }
   sma::RigOptions ro;
   ro.noise_mm = o.noise_mm;
   ro.v_supply = RIG_V_SUPPLY;
@@ -822,6 +843,7 @@ int main(int argc, char** argv) {
   rig.plant = &plant;
   const int rc = o.native ? run_native(rig) : run_avr(rig);
   if (rig.out.log) fclose(rig.out.log);
+  if (rig.truth) fclose(rig.truth);
   fflush(stdout);
   return rc;
 }
