@@ -41,7 +41,10 @@
 #define RIG_SENSOR_V_MAX 4.9
 
 // ---- limits ------------------------------------------------------------------------------------
-#define RIG_T_LIMIT_C 110.0    // wire temperature estimate limit (console tlim changes it)
+#define RIG_T_LIMIT_C 110.0    // wire temperature estimate limit at boot (console tlim changes it)
+// Largest setpoint the console accepts (pos, traj), mm: the sensor's range above the rest
+// position. The uploaded model's stroke g lowers it (a setpoint past g cannot be reached).
+#define RIG_STROKE_MM 1.5
 #define RIG_LINK_TIMEOUT_S 0.0  // 0 = losing the serial link is not a fault
 #define RIG_BAUD 115200UL
 // Reset cause: Optiboot (the Uno's bootloader) clears MCUSR and passes its value in r2. Set to 0

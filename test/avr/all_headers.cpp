@@ -3,6 +3,7 @@
 // template instantiated for the scalar under test, so that STL use, exceptions, 16-bit-int
 // overflows or conversion warnings on AVR fail the build.
 #include <sma_model.h>
+#include <sma/board.hpp>
 #include <sma/console.hpp>
 #include <sma/safety.hpp>
 
@@ -13,6 +14,38 @@ typedef float Scalar;
 #endif
 
 volatile float g_in = 0.4f;
+
+// The board's unit with a rig of constants and outputs that go nowhere.
+struct AvrTestRig {
+  static constexpr double tick_hz() { return 100; }
+  static constexpr double v_max() { return 2.0; }
+  static constexpr double v_supply() { return 5.0; }
+  static constexpr unsigned long pwm_top() { return 15999; }
+  static constexpr double adc_vref() { return 5.0; }
+  static constexpr double adc_counts() { return 1024; }
+  static constexpr double sensor_mm_per_v() { return 0.4; }
+  static constexpr double sensor_offset_mm() { return -0.5; }
+  static constexpr double sensor_v_min() { return 0.1; }
+  static constexpr double sensor_v_max() { return 4.9; }
+  static constexpr double t_limit_C() { return 110.0; }
+  static constexpr double link_timeout_s() { return 0.0; }
+  static constexpr double stroke_mm() { return 1.5; }
+  static constexpr bool model() { return true; }
+  static constexpr bool train() { return true; }
+  static constexpr bool compensate() { return true; }
+};
+volatile uint8_t g_sink;
+struct AvrTestHw {
+  bool line(const char* s, uint8_t len) {
+    g_sink = static_cast<uint8_t>(s[0] + len);
+    return true;
+  }
+  uint8_t read(uint16_t a) const { return static_cast<uint8_t>(a); }
+  void write(uint16_t a, uint8_t v) { g_sink = static_cast<uint8_t>(a + v); }
+  uint8_t irq_off() { return 0; }
+  void irq_restore(uint8_t s) { g_sink = s; }
+};
+sma::Board<Scalar, AvrTestRig, AvrTestHw> g_board;
 volatile float g_out;
 
 int main() {
@@ -37,6 +70,13 @@ int main() {
   sma::console::Reply reply;
   sma::console::execute("pos 0.4", state, sma::Fault::None, reply);
   sma::Safety safety;
+  g_board.boot(false, SMA_F("# ready"));
+  for (const char* c = "pbegin\n"; *c; ++c)
+    if (g_board.rx(*c)) g_board.handle_line();
+  if (g_board.model_pending()) g_board.run_model_op();
+  g_sink = static_cast<uint8_t>(g_board.control(50000u, 96, 0));
+  g_board.report();
+  g_board.poll();
   sma::SensorPredictor<Scalar> sensor(curves, p, fx, 0.01);
   g_out = g_out + static_cast<float>(sma::to_double(sensor.correct(Scalar(0.3), Scalar(40))));
   return (p.check() == nullptr && reply.len > 0) ? 0 : 1;

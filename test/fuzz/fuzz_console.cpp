@@ -1,7 +1,7 @@
 // libFuzzer target: the serial console (lib/sma_model/include/sma/console.hpp) on arbitrary bytes,
-// wired like the firmware (firmware/src/main.cpp): LineBuffer -> execute -> status_line /
-// line_error, then the controller, reference generator and safety latch the firmware syncs after
-// an OK, stepped for a few ticks.
+// checked line by line through its pure functions (execute, status_line, line_error,
+// model_command), and the same bytes fed to the firmware's own unit, sma::Board (sma/board.hpp,
+// what firmware/src/main.cpp runs), ticked twice after every line.
 //
 // Input: byte 0 = flags (bits 0-2: latched fault at start, mod 6; bit 3: feed the lines to
 // execute() directly, bypassing the LineBuffer, so over-long lines reach parse(); bits 4-7:
@@ -19,7 +19,10 @@
 //     safety gate's output within 0..V_max, status and telemetry rows fit the reply buffer;
 //   * model commands (pbegin/pset/pget/pcommit/pabort/pinfo) run on a 1 KB RAM EEPROM through
 //     model_command() as in the firmware: OK/ERR replies, a refused pcommit keeps the active set,
-//     an accepted one passes the checks, builds a valid controller and is what a reboot loads.
+//     an accepted one passes the checks, builds a valid controller and is what a reboot loads;
+//   * the Board: every line it writes is printable and starts with OK/ERR/'#' or is a telemetry
+//     row; its PWM counts stay within 0..TOP+1 and are 0 while the heater is off or the latch
+//     tripped; its latch limit changes only on an OK'd tlim.
 // Dictionary: console.dict (the command words and model keys).
 #include <stddef.h>
 #include <stdint.h>
@@ -31,10 +34,10 @@
 #include <string>
 #include <type_traits>
 
+#include "rig_board.h"
+#include "sma/board.hpp"
 #include "sma/console.hpp"
 #include "sma/controller.hpp"
-#include "sma/reference.hpp"
-#include "sma/safety.hpp"
 #include "sma/storage.hpp"
 
 namespace con = sma::console;
@@ -132,29 +135,51 @@ struct RamEeprom {
   }
 };
 
+// The Board's outputs: lines kept for checking, the EEPROM in RAM.
+struct FuzzHw {
+  RamEeprom* ee;
+  std::string* out;
+  bool line(const char* s, uint8_t len) {
+    out->append(s, len);
+    out->push_back('\n');
+    return true;
+  }
+  uint8_t read(uint16_t a) const { return ee->read(a); }
+  void write(uint16_t a, uint8_t v) { ee->write(a, v); }
+  uint8_t irq_off() { return 0; }
+  void irq_restore(uint8_t) {}
+};
+typedef sma::Board<float, RigBoard, FuzzHw> FuzzBoard;
+
 struct Harness {
   con::State state;
   sma::storage::Store<RamEeprom> store;
   con::Limits lim;
   con::Reply reply;
   sma::Fault fault = sma::Fault::None;
-  sma::Controller<float> ctl;
-  sma::ReferenceGen<float> gen;
-  sma::Safety safety;
-  uint16_t run_seen = 0;
-  uint32_t ticks = 0, run_start = 0;
+  uint32_t ticks = 0;
   float mm = 0.3f;
+  // The firmware's unit on the same bytes.
+  RamEeprom board_ee;
+  std::string board_out;
+  FuzzBoard board;
+  double board_tlim = RIG_T_LIMIT_C;
 
-  static sma::ControllerConfig cfg() {
-    sma::ControllerConfig c;
-    c.dt = 0.01;
-    c.v_max = 2.0;
-    c.gains = con::default_gains(sma::Mode::FeedforwardPid);
-    return c;
+  static sma::ControllerConfig cfg() { return FuzzBoard::controller_config(); }
+  Harness() : board(FuzzHw{&board_ee, &board_out}) {
+    state.tlim_C = RIG_T_LIMIT_C;
+    lim = board.limits();
   }
-  Harness() : ctl(sma::Params(), sma::Effects(), cfg()), gen(sma::Reference::constant(0.0)) {}
 
-  // What the firmware does with one complete line.
+  // ADC counts of the measured displacement (rig_config.h's calibration inverted); a NaN or huge
+  // measurement is a lost sensor.
+  uint16_t adc() const {
+    const double v = (mm - RIG_SENSOR_OFFSET_MM) / RIG_SENSOR_MM_PER_V;
+    if (!(v >= 0.0 && v <= RIG_ADC_VREF)) return 1023;
+    return static_cast<uint16_t>(v / RIG_ADC_VREF * (RIG_ADC_COUNTS - 1));
+  }
+
+  // What the firmware does with one complete line: the console's functions, checked.
   void line(const std::string& text) {
     const std::string& line = text;
     con::State before;
@@ -188,6 +213,7 @@ struct Harness {
         CHECK(state.heat == before.heat, "a non-heating command changed heat");
       }
       if (c.op == con::Op::Stop) CHECK(!state.heat, "stop left the heater on");
+      if (c.op != con::Op::Tlim) CHECK(state.tlim_C == before.tlim_C, "a command other than tlim changed tlim");
     }
     check_state(state, lim, line, reply);
     // Same line, parsed again: same answer.
@@ -202,39 +228,52 @@ struct Harness {
       if (p2) CHECK(c2.op == c.op || !ok, "parse() and execute() disagree on the op");
     }
     if (text.size() < 200) check_numbers(text, reply);
+    if (ok && c.op == con::Op::Status) {
+      con::Live live;
+      live.ticks = ticks;
+      live.d_mm = mm;
+      live.v = 2.0;
+      live.temp_C = 1e12;
+      live.fault = fault;
+      live.dropped = 0xFFFF;
+      live.overruns = 0xFFFF;
+      live.t_ref_s = 1e12;  // "big"
+      con::status_line(reply, state, live);
+      check_reply_text(reply, line);
+      CHECK(starts(reply.text, "OK status "), "status_line does not start with 'OK status '");
+    }
+    if (ok && c.op == con::Op::Stop) fault = sma::Fault::None;
+    if (ok && c.op == con::Op::Tlim) board_tlim = state.tlim_C;
+  }
 
-    if (ok) {
-      if (c.op == con::Op::Status) {
-        con::Live live;
-        live.ticks = ticks;
-        live.d_mm = mm;
-        live.v = ctl.voltage();
-        live.temp_C = ctl.wire_temperature();
-        live.fault = fault;
-        live.dropped = 0xFFFF;
-        live.overruns = 0xFFFF;
-        live.t_ref_s = 1e12;  // "big"
-        con::status_line(reply, state, live);
-        check_reply_text(reply, line);
-        CHECK(starts(reply.text, "OK status "), "status_line does not start with 'OK status '");
-      }
-      // sync_state() of the firmware.
-      if (c.op == con::Op::Stop) {
-        fault = sma::Fault::None;
-        safety.clear();
-      }
-      CHECK(safety.set_limit(state.tlim_C), "Safety refused the console's tlim");
-      ctl.set_voltage(static_cast<float>(state.volt));
-      if (state.active_mode() != ctl.mode()) ctl.set_mode(state.active_mode(), mm);
-      if (c.op == con::Op::Gains || c.op == con::Op::SetMode) ctl.set_gains(state.gains());
-      if (state.run != run_seen) {
-        run_seen = state.run;
-        gen = sma::ReferenceGen<float>(state.reference());
-        run_start = ticks;
-      }
+  // The same line through the Board (bytes in), then two ticks.
+  void board_line(const std::string& bytes, const std::string& line) {
+    for (char ch : bytes) {
+      if (!board.rx(ch)) continue;
+      board.handle_line();
+      if (board.model_pending()) board.run_model_op();
+      board.poll();
     }
     tick(line);
     tick(line);
+    check_board_out(line);
+  }
+
+  void check_board_out(const std::string& line) {
+    size_t i = 0;
+    while (i < board_out.size()) {
+      size_t j = board_out.find('\n', i);
+      if (j == std::string::npos) j = board_out.size();
+      const std::string l = board_out.substr(i, j - i);
+      CHECK(l.size() < con::kReplyMax, "Board line too long");
+      for (char c : l) CHECK(static_cast<unsigned char>(c) >= 32 && static_cast<unsigned char>(c) < 127, "Board line not printable");
+      const bool row = !l.empty() && (l[0] >= '0' && l[0] <= '9');
+      CHECK(row || starts(l.c_str(), "OK ") || starts(l.c_str(), "ERR ") || starts(l.c_str(), "#") ||
+                l == "t_s,v_V,d_mm,ref_mm,duty",
+            "Board line neither OK/ERR/#/header nor a telemetry row");
+      i = j + 1;
+    }
+    board_out.clear();
   }
 
   // What the firmware does with a model command (model_op(): defaults in the scratch set), and
@@ -268,30 +307,19 @@ struct Harness {
     }
   }
 
+  // One tick of the Board: ~96 ADC samples of the measurement (a lost sensor if it is not one).
   void tick(const std::string& line) {
-    // A trajectory/sine/step far into its run as well as at its start.
-    const double t_ref = (ticks - run_start) * 0.01 * (ticks % 7 == 0 ? 997.0 : 1.0);
-    const float ref = gen.at(t_ref);
-    CHECK(std::isfinite(ref), "reference not finite");
-    const float v = ctl.step(ref, mm);
-    CHECK(std::isfinite(v) && v >= 0.0f && v <= 2.0f + 1e-6f, "controller output outside 0..V_max");
-    sma::SafetyInput si;
-    si.sensor_v = std::isfinite(mm) ? (mm + 0.5) / 0.4 : NAN;
-    si.measured_mm = mm;
-    si.wire_temp_C = ctl.wire_temperature();
-    si.command_v = v;
-    si.heating = state.heat;
-    const double g = safety.gate(si);
-    CHECK(g >= 0.0 && g <= 2.0 + 1e-6, "safety gate output outside 0..V_max");
-    if (safety.tripped()) CHECK(g == 0.0, "heating through a tripped latch");
-    if (safety.tripped() && state.heat) {
-      state.heat = false;
-      ctl.set_mode(sma::Mode::Off, mm);
-      if (fault == sma::Fault::None) fault = safety.fault();
-    }
-    con::telemetry_row(reply, ticks, 100, g, mm, ref, (g / 5.0) * (g / 5.0));
-    check_reply_text(reply, line);
+    const uint16_t a = adc();
+    const uint16_t n = board.control(static_cast<uint32_t>(a) * 96u, 96, a >= 1023 ? 96 : 0);
+    CHECK(n <= RIG_PWM_TOP + 1u, "PWM counts above TOP + 1");
+    if (!board.state().heat || board.safety().tripped()) CHECK(n == 0, "PWM on with the heater off or the latch tripped");
+    CHECK(board.safety().config().t_limit_C == board_tlim, "the latch limit changed without tlim");
+    const float v = board.controller().voltage();
+    CHECK(std::isfinite(v) && v >= 0.0f && v <= RIG_V_MAX + 1e-6f, "controller output outside 0..V_max");
+    board.report();
+    board.poll();
     ++ticks;
+    (void)line;
   }
 
   void line_error(con::LineBuffer::Status st, const std::string& line) {
@@ -311,11 +339,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const bool direct = (flags & 8) != 0;
   const uint8_t m = flags >> 4;
   h.mm = m == 15 ? NAN : m == 14 ? 1e30f : -0.5f + 0.13f * m;
+  h.board.boot(false, "# fuzz");
   if (h.fault != sma::Fault::None) {
-    sma::SafetyInput bad;
-    bad.sensor_v = 99.0;  // latch something so that the gate agrees with the console's fault
-    bad.heating = true;
-    h.safety.gate(bad);
+    // Latch a fault in the Board too: heat, lose the sensor for a tick.
+    const float mm = h.mm;
+    h.board_line("volt 1\n", "volt 1");
+    h.mm = NAN;
+    h.tick("");
+    h.mm = mm;
+    h.board_out.clear();
   }
   const uint8_t* p = data + 1;
   const size_t n = size - 1;
@@ -324,7 +356,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::string cur;
     for (size_t i = 0; i <= n; ++i) {
       if (i == n || p[i] == '\n') {
-        h.line(std::string(cur.c_str()));
+        const std::string l(cur.c_str());
+        h.line(l);
+        h.board_line(l + "\n", l);
         cur.clear();
       } else {
         cur.push_back(static_cast<char>(p[i]));
@@ -333,6 +367,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     return 0;
   }
   con::LineBuffer lb;
+  size_t from = 0;  // the bytes of the line in progress, for the Board
   for (size_t i = 0; i < n; ++i) {
     const auto st = lb.push(static_cast<char>(p[i]));
     if (st == con::LineBuffer::Status::Pending) continue;
@@ -346,6 +381,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     } else {
       h.line_error(st, line);
     }
+    h.board_line(std::string(reinterpret_cast<const char*>(p + from), i + 1 - from), line);
+    from = i + 1;
   }
   return 0;
 }

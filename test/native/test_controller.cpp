@@ -2,7 +2,7 @@
 #include <gtest/gtest.h>
 #include <math.h>
 #include "sma/controller.hpp"
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 
 namespace {
 const sma::Params kP;

@@ -4,7 +4,7 @@
 #include <math.h>
 #include <vector>
 #include "sma/hysteresis.hpp"
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 
 namespace {
 const sma::Params kP;

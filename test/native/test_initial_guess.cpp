@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 #include <math.h>
 #include <vector>
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 #include "sma_host/initial_guess.hpp"
 
 namespace {

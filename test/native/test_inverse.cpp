@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 #include <math.h>
 #include "sma/inverse.hpp"
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 
 namespace {
 const sma::Params kP;

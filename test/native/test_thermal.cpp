@@ -1,7 +1,7 @@
 // Thermal model (eq 1) and its inverse (eq 17): steady states, exact discretisation, energy.
 #include <gtest/gtest.h>
 #include <math.h>
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 #include "sma/thermal.hpp"
 
 namespace {

@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 #include <math.h>
 #include "sma/inverse.hpp"
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 
 namespace {
 const sma::Params kP;               // the paper's wire: L0 = 0.14 m, T_AF = 80.1 degC

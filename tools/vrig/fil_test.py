@@ -49,6 +49,7 @@ import json
 import math
 import os
 import shutil
+import struct
 import subprocess
 import sys
 
@@ -425,6 +426,66 @@ def t_upload(args):
     return name, {"replies": rep, "upload": up.stdout[-500:]}, failures
 
 
+def t_download(args):
+    """Settings dump and restore on the virtual rig: upload a wire, download it (sma download),
+    upload the download into a blank EEPROM, download again: both downloads and the uploaded
+    file agree key by key within float32 precision (the board's decimal parser)."""
+    name = "download"
+    d = os.path.join(args.out, name)
+    os.makedirs(d, exist_ok=True)
+    wire = os.path.join(d, "wire.json")
+    with open(wire, "w") as f:
+        f.write('{"T_AS": 55.2, "T_AF": 84.1, "h": 214.5, "g": 1.1496, "loops": [{"T_i": 64, "T_ii": 60, "j": 0.2}],'
+                ' "effects": {"sensor_lag": {"tau_s": 0.5}, "sensor_calibration": {"gain": 1.02, "offset_mm": -0.0123},'
+                ' "convection_nonlinear": {"beta_per_K": 0.001234567}}}')
+    helper = args.sma_params or os.path.join(os.path.dirname(os.path.abspath(args.vrig)), "sma_params")
+    sma = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "sma")
+    env = dict(os.environ, SMA_PARAMS=helper)
+    failures = []
+
+    def keys_of(path):
+        r = subprocess.run([helper, path], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        check(r.returncode == 0, f"sma_params {path}: {r.stderr[-300:]}", failures)
+        out = {}
+        for ln in r.stdout.splitlines():
+            k, v = ln.split()
+            out[k] = float(v) if k == "loops" else struct.unpack("<f", struct.pack("<f", float(v)))[0]
+        return out
+
+    def round_trip(src, dst, ee):
+        if os.path.exists(ee):
+            os.remove(ee)
+        try:
+            board = PtyBoard(args.vrig, args.elf, 60, extra=["--eeprom", ee])
+        except RuntimeError as e:
+            failures.append(str(e))
+            return
+        with board:
+            up = subprocess.run([sys.executable, sma, "upload", src, "--port", board.port], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True, env=env, timeout=120)
+            check(up.returncode == 0, f"upload {src}: exit {up.returncode}: {up.stderr[-300:]}", failures)
+            dl = subprocess.run([sys.executable, sma, "download", "--port", board.port, "-o", dst],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, timeout=120)
+            check(dl.returncode == 0, f"download: exit {dl.returncode}: {dl.stderr[-300:]}", failures)
+            check("57 keys" in dl.stdout, f"download did not read 57 keys: {dl.stdout[-200:]}", failures)
+
+    first = os.path.join(d, "board.json")
+    second = os.path.join(d, "board2.json")
+    round_trip(wire, first, os.path.join(d, "eeprom1.bin"))
+    round_trip(first, second, os.path.join(d, "eeprom2.bin"))
+    if failures:
+        return name, {}, failures
+    a, b, c = keys_of(wire), keys_of(first), keys_of(second)
+    # The board parses a decimal in float arithmetic (not correctly rounded): a value sent by
+    # upload lands within a float32 ulp or two (upload checks 4e-7 relative), one more per trip.
+    def close(x, y, trips):
+        return y is not None and abs(x - y) <= trips * 4e-7 * max(abs(x), 1e-30)
+    diff = [k for k in a if not (close(a[k], b.get(k), 1) and close(a[k], c.get(k), 2))]
+    check(not diff, f"keys differ after the round trip: {[(k, a[k], b.get(k), c.get(k)) for k in diff[:5]]}",
+          failures)
+    return name, {"keys": len(a), "differ": len(diff)}, failures
+
+
 def t_console(args):
     """tools/sma console against the virtual rig, through its pseudo-terminal: commands get their
     replies, telemetry is recorded as a rig log, and leaving the console turns the heater off."""
@@ -535,7 +596,7 @@ def main():
     ap.add_argument("--out", required=True)
     ap.add_argument("--sma-params", help="the sma_params helper (upload test; default: next to vrig)")
     ap.add_argument("test", choices=["tracking_step", "tracking_sine", "bad_lines", "sensor_loss", "flood",
-                                     "watchdog_boot", "model", "upload", "console", "train"])
+                                     "watchdog_boot", "model", "upload", "download", "console", "train"])
     args = ap.parse_args()
     global ELF
     ELF = args.elf
@@ -543,7 +604,7 @@ def main():
     tests = {"tracking_step": lambda: t_tracking(args, "step"), "tracking_sine": lambda: t_tracking(args, "sine"),
              "bad_lines": lambda: t_bad_lines(args), "sensor_loss": lambda: t_sensor_loss(args),
              "watchdog_boot": lambda: t_watchdog_boot(args), "model": lambda: t_model(args),
-             "upload": lambda: t_upload(args), "console": lambda: t_console(args), "train": lambda: t_train(args)}
+             "upload": lambda: t_upload(args), "download": lambda: t_download(args), "console": lambda: t_console(args), "train": lambda: t_train(args)}
     name, summary, failures = tests.get(args.test, lambda: t_flood(args))()
     summary["failures"] = failures
     with open(os.path.join(args.out, name, "summary.json"), "w") as f:

@@ -7,8 +7,8 @@
 //   UART0 <-> a script of timed commands (--script), stdin (default), or a pseudo-terminal (--pty)
 //   GPIOR0 markers written by the firmware -> exact cycles of the control section, tick jitter
 //
-// --native runs the same console, controller and safety latch natively (float) instead of the
-// ELF, with the same plant and the same script: the reference the FIL tests compare against.
+// --native runs the firmware's own logic, sma::Board (sma/board.hpp), natively (float) instead of
+// the ELF, with the same plant and the same script: the reference the FIL tests compare against.
 //
 // Usage: vrig FIRMWARE.elf [options]   (see usage() below)
 #include <errno.h>
@@ -25,12 +25,9 @@
 #include <string>
 #include <vector>
 
-#include "rig_config.h"
-#include "sma/console.hpp"
-#include "sma/controller.hpp"
-#include "sma/plant.hpp"
-#include "sma/reference.hpp"
-#include "sma/safety.hpp"
+#include "rig_board.h"
+#include "sma/board.hpp"
+#include "sma_host/plant.hpp"
 #include "sma_tools/params_json.hpp"
 
 extern "C" {
@@ -78,6 +75,7 @@ struct Options {
   std::string params;                   // --params FILE.json: the plant's wire (interfaces.md)
   std::vector<std::string> effect_args;  // --effect, applied after --params
   std::string eeprom;                   // --eeprom FILE: the AVR's EEPROM, loaded and saved
+  std::string truth;                    // --truth FILE: t_s,true_mm of the plant every 10 ms
   double fault_at = -1.0, fault_mv = 5000.0;  // sensor loss injection
   double flood_from = -1.0, flood_to = -1.0;  // input flood
   bool wdrf = false;                          // start as after a watchdog reset
@@ -103,6 +101,8 @@ void usage() {
           "  --effect NAME.PARAM=V  hidden plant effect, vocabulary names, e.g.\n"
           "                      sensor_delay.delay_s=0.05 (after --params; the old field form\n"
           "                      sensor_delay_s=0.05 ... latent_heat_J=V still works)\n"
+          "  --truth FILE        the wire's true displacement (t_s,true_mm every 10 ms: no sensor\n"
+          "                      effect, no noise), for tracking metrics under sensor effects\n"
           "  --eeprom FILE       the AVR's 1 KB EEPROM: read at start if FILE exists, written at\n"
           "                      the end (model parameters survive between runs)\n"
           "  --sensor-fault T[:MV]  from T s on, drive ADC0 to MV millivolts (default 5000)\n"
@@ -344,6 +344,12 @@ struct Rig {
   Options opt;
   avr_t* avr = nullptr;
   sma::Plant* plant = nullptr;
+  FILE* truth = nullptr;  // --truth
+  long plant_ms = 0;
+  // The wire's true displacement (no sensor effect, no noise) every 10 ms of plant time.
+  void write_truth(double t) {
+    if (truth && plant_ms++ % 10 == 0) fprintf(truth, "%.3f,%.6f\n", t, plant->displacement());
+  }
   avr_irq_t* adc0 = nullptr;
   avr_irq_t* uart_in = nullptr;
   bool xon = true;
@@ -398,6 +404,7 @@ struct Rig {
     const double t = now();
     const double v = RIG_V_SUPPLY * sqrt(duty());
     plant->step(v, kPlantDt);
+    write_truth(t + kPlantDt);
     double mv = sensor_mv(plant->measure());
     if (opt.fault_at >= 0 && t >= opt.fault_at) mv = opt.fault_mv;
     avr_raise_irq(adc0, static_cast<uint32_t>(mv + 0.5));
@@ -631,112 +638,93 @@ int run_avr(Rig& rig) {
   return 0;
 }
 
-// ---- native: the same console, controller and latch on the host, same plant and script --------
+// ---- native: the firmware's sma::Board on the host, same plant and script ----------------------
+// The same unit as firmware/src/main.cpp with the same rig constants (rig_board.h) and features
+// as the float image (RIG_FEATURE_*), the EEPROM in RAM (--eeprom loads and saves it too).
+uint8_t g_native_eeprom[1024];
+double g_native_t = 0.0;  // the stamp of the lines the board writes now
+struct NativeHw {
+  bool line(const char* s, uint8_t len) {
+    for (uint8_t k = 0; k < len; ++k) g_rig->out.byte(static_cast<uint8_t>(s[k]), g_native_t);
+    g_rig->out.byte('\n', g_native_t);
+    return true;
+  }
+  uint8_t read(uint16_t a) const { return a < sizeof g_native_eeprom ? g_native_eeprom[a] : 0xFF; }
+  void write(uint16_t a, uint8_t v) {
+    if (a < sizeof g_native_eeprom) g_native_eeprom[a] = v;
+  }
+  uint8_t irq_off() { return 0; }
+  void irq_restore(uint8_t) {}
+};
+
+bool native_eeprom_io(const std::string& path, bool save) {
+  if (save) {
+    FILE* fo = fopen(path.c_str(), "wb");
+    const bool ok = fo && fwrite(g_native_eeprom, 1, sizeof g_native_eeprom, fo) == sizeof g_native_eeprom;
+    if (fo) fclose(fo);
+    if (!ok) fprintf(stderr, "vrig: cannot write --eeprom %s\n", path.c_str());
+    return ok;
+  }
+  memset(g_native_eeprom, 0xFF, sizeof g_native_eeprom);
+  if (FILE* fi = fopen(path.c_str(), "rb")) {
+    const size_t n = fread(g_native_eeprom, 1, sizeof g_native_eeprom, fi);
+    fclose(fi);
+    (void)n;
+  }
+  return true;
+}
+
 int run_native(Rig& rig) {
-  namespace con = sma::console;
-  sma::ControllerConfig cfg;
-  cfg.dt = 1.0 / RIG_TICK_HZ;
-  cfg.v_max = RIG_V_MAX;
-  cfg.gains = con::default_gains(sma::Mode::FeedforwardPid);
-  sma::Controller<float> ctl(sma::Params(), sma::Effects(), cfg);
-  sma::ReferenceGen<float> gen(sma::Reference::constant(0.0));
-  sma::SafetyConfig scfg;
-  scfg.t_limit_C = RIG_T_LIMIT_C;
-  scfg.sensor_v_min = RIG_SENSOR_V_MIN;
-  scfg.sensor_v_max = RIG_SENSOR_V_MAX;
-  sma::Safety safety(scfg);
-  safety.boot(false);
-  con::State state;
-  con::LineBuffer lb;
-  con::Reply reply;
-  uint16_t run_seen = 0;
-  uint32_t ticks = 0, run_start = 0;
-  bool header_due = false;
-  float last_mm = 0;
+  typedef sma::Board<float, RigBoard, NativeHw> Board;
+  memset(g_native_eeprom, 0xFF, sizeof g_native_eeprom);
+  if (!rig.opt.eeprom.empty() && !native_eeprom_io(rig.opt.eeprom, false)) return 2;
+  static Board board;  // static: the firmware's object, not on the stack
+  board.boot(rig.opt.wdrf, "# sma_firmware float ready: heater off; try help");
+  const double dt = 1.0 / RIG_TICK_HZ;
   double v_applied = 0;  // held between ticks (the PWM)
-  const int sub = static_cast<int>(1.0 / RIG_TICK_HZ / kPlantDt + 0.5);
+  const int sub = static_cast<int>(dt / kPlantDt + 0.5);
   const long n_ticks = static_cast<long>(rig.opt.duration * RIG_TICK_HZ);
-  auto emit = [&](const char* s) {
-    for (const char* p = s; *p; ++p) rig.out.byte(static_cast<uint8_t>(*p), ticks * cfg.dt);
-    rig.out.byte('\n', ticks * cfg.dt);
-  };
+  const double top1 = RIG_PWM_TOP + 1.0;
+  // ADC counts of the sensor's valid range (main.cpp's kAdcLo/kAdcHi).
+  const uint16_t adc_lo = static_cast<uint16_t>(RIG_SENSOR_V_MIN / RIG_ADC_VREF * RIG_ADC_COUNTS + 0.5);
+  const uint16_t adc_hi = static_cast<uint16_t>(RIG_SENSOR_V_MAX / RIG_ADC_VREF * RIG_ADC_COUNTS + 0.5);
   for (long k = 0; k < n_ticks; ++k) {
-    const double t = k * cfg.dt;
-    // Console input due by now.
+    const double t = k * dt;
+    g_native_t = t;
+    // Console input due by now: every line handled at once (the firmware defers a line by at
+    // most one tick when it completes less than 3 ms before the next).
     while (rig.script_pos < rig.script.size() && rig.script[rig.script_pos].t <= t) {
-      std::string s = rig.script[rig.script_pos++].text + "\n";
+      const std::string s = rig.script[rig.script_pos++].text + "\n";
       for (char ch : s) {
-        safety.on_rx();
-        const auto stt = lb.push(ch);
-        if (stt == con::LineBuffer::Status::Pending) continue;
-        if (stt == con::LineBuffer::Status::Line) {
-          con::Command c;
-          const bool tele_before = state.tele;
-          con::Limits lim;  // the paper's model only: no EEPROM model, no training run
-          lim.model = false;
-          lim.train = false;
-          if (con::execute(lb.line(), state, safety.fault(), reply, lim, &c)) {
-            if (c.op == con::Op::Stop) safety.clear();
-            safety.set_limit(state.tlim_C);
-            ctl.set_voltage(static_cast<float>(state.volt));
-            if (state.active_mode() != ctl.mode()) ctl.set_mode(state.active_mode(), last_mm);
-            if (c.op == con::Op::Gains || c.op == con::Op::SetMode) ctl.set_gains(state.gains());
-            if (state.run != run_seen) {
-              run_seen = state.run;
-              gen = sma::ReferenceGen<float>(state.reference());
-              run_start = ticks;
-            }
-            if (c.op == con::Op::Tele && c.on && !tele_before) header_due = true;
-          }
-        } else {
-          con::line_error(stt, reply);
-        }
-        if (reply.len) emit(reply.text);
+        if (!board.rx(ch)) continue;
+        board.handle_line();
+        if (board.model_pending()) board.run_model_op();
+        board.poll();
       }
     }
-    // Sensor: 1 ms samples of the last tick, averaged like the firmware's ADC window, 10 bit.
-    double mv_sum = 0;
-    for (int s = 0; s < sub; ++s) {
+    // Sensor: 1 ms samples of the last tick, 10-bit ADC counts as the firmware's ISR sums them.
+    uint32_t sum = 0;
+    uint8_t n = 0, bad = 0;
+    for (int j = 0; j < sub; ++j) {
       rig.plant->step(v_applied, kPlantDt);
+      rig.write_truth(t + (j + 1) * kPlantDt);
       double mv = sensor_mv(rig.plant->measure());
       if (rig.opt.fault_at >= 0 && t >= rig.opt.fault_at) mv = rig.opt.fault_mv;
-      mv_sum += floor(mv / 5000.0 * 1024.0);  // ADC count
+      double c = floor(mv / 5000.0 * 1024.0);
+      c = c < 0 ? 0 : c > 1023 ? 1023 : c;
+      const uint16_t a = static_cast<uint16_t>(c);
+      sum += a;
+      ++n;
+      if (a < adc_lo || a > adc_hi) ++bad;
     }
-    const double volts = mv_sum / sub * (RIG_ADC_VREF / RIG_ADC_COUNTS);
-    const float mm = static_cast<float>(RIG_SENSOR_MM_PER_V * volts + RIG_SENSOR_OFFSET_MM);
-    last_mm = mm;
-    const float tref = static_cast<float>((ticks - run_start) * cfg.dt);
-    const float ref = gen.at(tref);
-    const float vc = ctl.step(ref, mm);
-    sma::SafetyInput in;
-    in.sensor_v = volts;
-    in.measured_mm = mm;
-    in.wire_temp_C = ctl.wire_temperature();
-    in.command_v = vc;
-    in.heating = state.heat;
-    const double v = safety.gate(in);
-    if (safety.tripped() && state.heat) {
-      state.heat = false;
-      ctl.set_mode(sma::Mode::Off, mm);
-    }
-    // PWM quantisation as in the firmware.
-    const double top1 = RIG_PWM_TOP + 1.0;
-    double n = floor((v / RIG_V_SUPPLY) * (v / RIG_V_SUPPLY) * top1 + 0.5);
-    if (n < 1) n = 0;
-    const double duty = n / top1;
-    v_applied = RIG_V_SUPPLY * sqrt(duty);
+    const uint16_t counts = board.control(sum, n, bad);
+    v_applied = RIG_V_SUPPLY * sqrt(counts / top1);
     ++rig.st.ticks;
-    if (state.tele) {
-      if (header_due) {
-        emit("t_s,v_V,d_mm,ref_mm,duty");
-        header_due = false;
-      }
-      con::telemetry_row(reply, ticks, RIG_TICK_HZ, v, mm, ref, duty);
-      emit(reply.text);
-    }
-    ++ticks;
+    board.report();
+    board.poll();
   }
-  write_json(rig.opt, rig.st, "native", n_ticks * cfg.dt);
+  write_json(rig.opt, rig.st, "native", n_ticks * dt);
+  if (!rig.opt.eeprom.empty() && !native_eeprom_io(rig.opt.eeprom, true)) return 2;
   return 0;
 }
 
@@ -770,7 +758,9 @@ int main(int argc, char** argv) {
     else if (a == "--seed") o.seed = strtoull(val(), nullptr, 10);
     else if (a == "--effect") o.effect_args.push_back(val());
     else if (a == "--params") o.params = val();
-    else if (a == "--eeprom") o.eeprom = val(); else if (a == "--sensor-fault") {
+    else if (a == "--eeprom") o.eeprom = val();
+    else if (a == "--truth") o.truth = val();
+    else if (a == "--sensor-fault") {
       const char* s = val();
       o.fault_at = atof(s);
       if (const char* c = strchr(s, ':')) o.fault_mv = atof(c + 1);
@@ -837,6 +827,14 @@ int main(int argc, char** argv) {
     }
     fprintf(rig.out.log, "# rig: vrig %s noise_mm=%g\n", o.native ? "native" : o.elf.c_str(), o.noise_mm);
   }
+  if (!o.truth.empty()) {
+    rig.truth = fopen(o.truth.c_str(), "w");
+    if (!rig.truth) {
+      fprintf(stderr, "vrig: cannot write %s\n", o.truth.c_str());
+      return 2;
+    }
+    fprintf(rig.truth, "t_s,true_mm\n");
+  }
   sma::RigOptions ro;
   ro.noise_mm = o.noise_mm;
   ro.v_supply = RIG_V_SUPPLY;
@@ -845,6 +843,7 @@ int main(int argc, char** argv) {
   rig.plant = &plant;
   const int rc = o.native ? run_native(rig) : run_avr(rig);
   if (rig.out.log) fclose(rig.out.log);
+  if (rig.truth) fclose(rig.truth);
   fflush(stdout);
   return rc;
 }

@@ -6,7 +6,7 @@
 
 #include <vector>
 #include "sma/controller.hpp"
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 #include "sma/preview.hpp"
 #include "sma/reference.hpp"
 #include "sma/sensor.hpp"

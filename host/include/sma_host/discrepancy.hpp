@@ -28,7 +28,7 @@
 #include "sma/effects.hpp"
 #include "sma/hysteresis.hpp"
 #include "sma/params.hpp"
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 #include "identify.hpp"
 #include "signals.hpp"
 

@@ -20,7 +20,7 @@
 #include "sma/effects.hpp"
 #include "sma/hysteresis.hpp"
 #include "sma/params.hpp"
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 
 namespace sma_host {
 

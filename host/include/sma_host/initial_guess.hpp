@@ -31,7 +31,7 @@
 #include <vector>
 #include "sma/effects.hpp"
 #include "sma/params.hpp"
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 #include "sma/thermal.hpp"
 
 namespace sma_host {

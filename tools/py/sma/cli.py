@@ -8,6 +8,7 @@
   sma console --port PORT        the board's serial console: commands, status, recording
   sma upload PARAMS.json --port PORT   model parameters into the board's EEPROM, verified
   sma dashboard --port PORT      the rig live in the browser (or --vrig: the firmware in the virtual rig)
+  sma download --port PORT -o F.json  the board's active model as a params JSON
 """
 import argparse
 import os
@@ -37,6 +38,12 @@ def cmd_upload(args):
     from . import upload
 
     return upload.run(args)
+
+
+def cmd_download(args):
+    from . import download
+
+    return download.run(args)
 
 
 def cmd_build(args):
@@ -197,6 +204,16 @@ def make_parser():
     from . import dashboard
 
     dashboard.add_parser(sub)
+
+    dl = sub.add_parser("download", help="the board's active model as a params JSON (restore with upload)",
+                        description="Reads every key of the board's active model with pget (the stored "
+                                    "float32 bits, exactly) and writes it as a params JSON (interfaces.md), "
+                                    "which `sma upload` restores. Exit codes: 0 ok, 1 ERR/bad answer/bad set, "
+                                    "2 port, 3 link lost, 4 no reply.")
+    dl.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyACM0, /tmp/simavr-uart0")
+    dl.add_argument("-o", "--output", required=True, metavar="FILE.json")
+    dl.add_argument("--baud", type=int, default=115200)
+    dl.add_argument("--timeout", type=float, default=2.0, help="reply timeout (s)")
     return p
 
 
@@ -217,4 +234,4 @@ def main(argv=None):
         p.print_help()
         return 2
     return {"build": cmd_build, "console": cmd_console, "dashboard": cmd_dashboard,
-            "upload": cmd_upload}[args.command](args)
+            "upload": cmd_upload, "download": cmd_download}[args.command](args)

@@ -100,6 +100,7 @@ struct Limits {
   double v_max = 2.0;   // volt in 0..v_max
   bool model = true;    // the model commands (pbegin ...) exist in this build
   bool train = true;    // train exists in this build
+  bool single = false;  // numbers in float arithmetic (sma::Board: as on the AVR)
 };
 
 // What the console controls. The firmware applies it to the controller and the safety latch.
@@ -335,7 +336,9 @@ class LineBuffer {
   uint8_t length() const { return done_len_; }
 
  private:
-  char buf_[kLineMax + 1] = {};
+  // Not zeroed at construction (48 stores of flash on AVR): line() is read only after a Line,
+  // which 0-terminates it.
+  char buf_[kLineMax + 1];
   uint8_t len_ = 0, done_len_ = 0;
   bool too_long_ = false, binary_ = false, last_was_cr_ = false;
 };
@@ -371,7 +374,9 @@ enum class Num : uint8_t { Ok, Bad, TooLong };
 
 // A plain decimal: [+-] digits [. digits] | [+-] . digits. At most 9 significant digits before
 // the point, extra fraction digits are dropped (truncated). No exponent, no inf, no nan.
-inline Num parse_number(const char* tok, uint8_t len, double& out) {
+// `single`: computed in float as on the AVR (a host model of the board answers a number on a
+// range limit as the board does).
+inline Num parse_number(const char* tok, uint8_t len, double& out, bool single = false) {
   uint8_t k = 0;
   bool neg = false;
   if (k < len && (tok[k] == '+' || tok[k] == '-')) {
@@ -400,6 +405,12 @@ inline Num parse_number(const char* tok, uint8_t len, double& out) {
     if (point) ++frac_digits;
   }
   if (digits == 0) return Num::Bad;  // "", "+", ".", "-."
+  if (single) {  // the AVR's arithmetic (double is float there), step by step
+    float f = static_cast<float>(mant);
+    for (uint8_t d = 0; d < frac_digits; ++d) f /= 10.0f;
+    out = static_cast<double>(neg ? -f : f);
+    return Num::Ok;
+  }
   double v = static_cast<double>(mant);
   for (uint8_t f = 0; f < frac_digits; ++f) v /= 10.0;
   out = neg ? -v : v;
@@ -586,7 +597,7 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
     tok = next_token(p, len);
     // pset: `ERR <key>: value ...`; others: `ERR <command>: <what> ...`
     const bool keyed = c.op == Op::PSet;
-    const detail::Num r = len == 0 ? detail::Num::Bad : detail::parse_number(tok, len, v[k]);
+    const detail::Num r = len == 0 ? detail::Num::Bad : detail::parse_number(tok, len, v[k], lim.single);
     const bool in_range = v[k] >= lo[k] && v[k] <= hi[k];
     // The loop count must be a whole number; cast only once it is known to fit a uint8_t
     // (converting an out-of-range double is undefined behaviour: found by fuzz_console).

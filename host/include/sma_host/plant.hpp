@@ -15,16 +15,16 @@
 #define SMA_PLANT_HPP
 
 #if defined(__AVR__)
-#error "sma/plant.hpp is the host-side simulated rig; the firmware includes sma_model.h only"
+#error "sma_host/plant.hpp is the host-side simulated rig; the firmware includes sma_model.h only"
 #endif
 
 #include <stdint.h>
-#include "effects.hpp"
-#include "hysteresis.hpp"
-#include "mechanics.hpp"
-#include "params.hpp"
-#include "scalar.hpp"
-#include "thermal.hpp"
+#include "sma/effects.hpp"
+#include "sma/hysteresis.hpp"
+#include "sma/mechanics.hpp"
+#include "sma/params.hpp"
+#include "sma/scalar.hpp"
+#include "sma/thermal.hpp"
 
 namespace sma {
 

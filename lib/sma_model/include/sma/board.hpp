@@ -1,0 +1,482 @@
+// The board's logic as one hardware-free unit: console state, controller (eq 18), sensor
+// compensation (sensor.hpp), safety latch, reference and training run, model store and
+// telemetry. The firmware (firmware/src/main.cpp) keeps only ISRs and hardware glue; the virtual
+// rig's --native mode, the console fuzzer, the soak's reference and the host tests drive this same
+// unit, so they cannot drift from the firmware.
+//
+//   bytes in  -> rx() -> handle_line() [-> run_model_op() at the top of the caller's stack]
+//   ADC sum / count / out-of-range count of one tick -> control() -> PWM counts 0..TOP+1
+//   report(): the telemetry row and a fault announcement of that tick
+//   poll(): what a loop pass owes outside the tick (the end of a training run)
+//
+// Template parameters:
+//   T   the scalar of the control path (float, or sma::Fixed for Q16.16);
+//   Rig the rig's constants as static constexpr functions (firmware/include/rig_board.h maps
+//       rig_config.h onto them): tick_hz, v_max, v_supply, pwm_top, adc_vref, adc_counts,
+//       sensor_mm_per_v, sensor_offset_mm, sensor_v_min, sensor_v_max, t_limit_C,
+//       link_timeout_s, stroke_mm, and the features model(), train(), compensate();
+//   Hw  the board's outputs: bool line(const char*, uint8_t) (false: dropped), the EEPROM
+//       (uint8_t read(uint16_t) const, void write(uint16_t, uint8_t): it is storage::Store's E),
+//       uint8_t irq_off() / void irq_restore(uint8_t) around the deepest stack.
+//
+// Settings change only when a command sets them: the latch's limit starts at Rig::t_limit_C()
+// and only `tlim` changes it; the controller's open-loop voltage only `volt`/`train`; its gains
+// only `gains`/`mode`. The console's limits are the rig's (V_max) and the model's (stroke g,
+// capped by the rig's sensor range).
+//
+// AVR notes: RAM is 2 KB and the stack shares it. The controller and the reference generator are
+// built in place (unions below): sma::Params (193 B) lives only while the models compute their
+// constants, in the generator's storage. The heavy member functions are noinline so that their
+// frames are never on the stack together with the control tick.
+#ifndef SMA_BOARD_HPP
+#define SMA_BOARD_HPP
+
+#include <stddef.h>
+#include <stdint.h>
+#if defined(ARDUINO)
+#include <new.h>
+#endif
+#if defined(__AVR__)
+#include <avr/pgmspace.h>
+#endif
+#if defined(ARDUINO)
+#elif defined(__AVR__)
+// avr-libc has no <new>: the placement form the unions below need.
+inline void* operator new(size_t, void* place) noexcept { return place; }
+#else
+#include <new>
+#endif
+#include "console.hpp"
+#include "controller.hpp"
+#include "reference.hpp"
+#include "safety.hpp"
+#include "scalar.hpp"
+#include "sensor.hpp"
+#include "storage.hpp"
+#include "training.hpp"
+
+#define SMA_NOINLINE __attribute__((noinline))
+
+namespace sma {
+
+template <class T, class Rig, class Hw>
+class Board {
+ public:
+  typedef Controller<T> Ctl;
+  typedef ReferenceGen<T> Gen;
+  typedef console::LineBuffer::Status LineStatus;
+
+  explicit Board(Hw hw = Hw()) : store_(hw), safety_(safety_config()) { state_.tlim_C = Rig::t_limit_C(); }
+  Board(const Board&) = delete;
+  Board& operator=(const Board&) = delete;
+
+  // At reset, heater off: the models from the EEPROM (or the paper's), the ready line, and a
+  // latched watchdog fault if the last run hung.
+  void boot(bool watchdog_reset, const char* banner_f) {
+    build_models();
+    start_reference();
+    live_.temp_C = to_double(ctl().wire_temperature());
+    safety_.boot(watchdog_reset);
+    reply_.clear();
+    reply_.put_f(banner_f);
+    send();
+    if (watchdog_reset) announce_fault();
+  }
+
+  // ---- bytes in --------------------------------------------------------------------------------
+  // One received byte. True when a line (or a bad line) is complete: the caller stops reading and
+  // calls handle_line() when it has the time (the slowest reply takes ~2 ms on the Uno).
+  bool rx(char c) {
+    safety_.on_rx();
+    const LineStatus st = line_.push(c);
+    if (st == LineStatus::Pending) return false;
+    waiting_ = st;
+    return true;
+  }
+  bool line_waiting() const { return waiting_ != LineStatus::Pending; }
+
+  SMA_NOINLINE void handle_line() {
+    const LineStatus st = waiting_;
+    waiting_ = LineStatus::Pending;
+    if (st == LineStatus::Line) {
+      console::Command c;
+      const bool tele_before = state_.tele;
+      if (console::execute(line_.line(), state_, safety_.fault(), reply_, limits(), &c)) {
+        if (c.op == console::Op::Status) console::status_line(reply_, state_, live_);
+        if (Rig::model() && console::is_model_op(c.op)) {  // run_model_op() replies
+          model_op_ = c.op;
+          model_key_ = c.key;
+          model_a_ = static_cast<float>(c.a);
+          return;
+        }
+        apply(c, tele_before);
+      }
+    } else if (st != LineStatus::Pending) {
+      console::line_error(st, reply_);
+    }
+    send();
+  }
+
+  // ---- model commands: run at the top of the caller's stack -------------------------------------
+  bool model_pending() const { return Rig::model() && model_op_ != console::Op::Empty; }
+  // Runs the pending model command. True when it wrote the EEPROM (pbegin, pset, pcommit: up to
+  // seconds on the AVR, heater off): the caller's tick count must catch up (set_ticks()).
+  SMA_NOINLINE bool run_model_op() {
+    console::Command c;
+    c.op = model_op_;
+    c.key = model_key_;
+    c.a = model_a_;
+    model_op_ = console::Op::Empty;
+    const bool write = c.op == console::Op::PBegin || c.op == console::Op::PCommit;
+    if (write) model_write(c);
+    else model_read(c);
+    send();
+    return write || c.op == console::Op::PSet;
+  }
+
+  // ---- the tick ----------------------------------------------------------------------------------
+  // The tick's ADC samples (sum, count, count outside the sensor's valid range) -> PWM counts n,
+  // duty n / (pwm_top + 1) = (V / V_supply)^2, 0 = heater off.
+  SMA_NOINLINE uint16_t control(uint32_t adc_sum, uint8_t adc_n, uint8_t adc_bad) {
+    const float volts = adc_n ? static_cast<float>(adc_sum) / static_cast<float>(adc_n) *
+                                    static_cast<float>(Rig::adc_vref() / Rig::adc_counts())
+                              : -1.0f;  // no sample: sensor lost
+    const float mm = static_cast<float>(Rig::sensor_mm_per_v()) * volts +
+                     static_cast<float>(Rig::sensor_offset_mm());
+    // The position the controller acts on: calibration undone, lag and delay compensated.
+    const T d = Rig::compensate() ? sensor().correct(from_double<T>(mm), ctl().wire_temperature())
+                                  : from_double<T>(mm);
+    last_d_ = d;
+
+    const uint32_t k = ticks_ - run_start_;
+    const float t_ref = static_cast<float>(k) * static_cast<float>(1.0 / Rig::tick_hz());
+    T ref = T(0);
+    if (Rig::train() && training_) {  // the training signal, open loop (the latch still applies)
+      if (k >= gen_.train.end_ticks) {
+        if (state_.training) train_done_ = true;
+        state_.training = false;
+        state_.heat = false;
+        ctl().set_mode(Mode::Off, d);
+      } else {
+        ctl().set_voltage(from_double<T>(training_voltage(t_ref)));
+      }
+    } else {
+      ref = gen().at(t_ref);
+    }
+    const T v_cmd = ctl().step(ref, d);
+
+    SafetyInput in;
+    in.sensor_v = volts;
+    in.samples_in_range = adc_bad == 0 && adc_n > 0;
+    in.measured_mm = mm;
+    in.wire_temp_C = static_cast<float>(to_double(ctl().wire_temperature()));
+    in.command_v = static_cast<float>(to_double(v_cmd));
+    in.heating = state_.heat;
+    const float v = static_cast<float>(safety_.gate(in));
+    if (safety_.tripped() && state_.heat) {
+      fault_due_ = true;
+      state_.heat = false;
+      state_.training = false;
+      ctl().set_mode(Mode::Off, d);
+    }
+    counts_ = pwm_counts(v);
+
+    live_.ticks = ticks_;
+    live_.t_ref_s = t_ref;
+    live_.d_mm = mm;
+    live_.ref_mm = static_cast<float>(to_double(ref));
+    live_.v = v;
+    live_.temp_C = in.wire_temp_C;
+    live_.fault = safety_.fault();
+    return counts_;
+  }
+
+  // After control() (and the PWM written): the tick's telemetry row and fault announcement.
+  SMA_NOINLINE void report() {
+    if (state_.tele) {
+      if (header_due_) {
+        reply_.clear();
+        reply_.put_f(console::telemetry_header());
+        send();
+        header_due_ = false;
+      }
+      console::telemetry_row(reply_, ticks_, static_cast<uint16_t>(Rig::tick_hz()), live_.v, live_.d_mm,
+                             live_.ref_mm, static_cast<float>(counts_) / static_cast<float>(Rig::pwm_top() + 1UL));
+      send();
+    }
+    ++ticks_;
+    if (fault_due_) announce_fault();
+  }
+
+  // Outside the tick: a training run that ended (its storage back to a generator, the line).
+  void poll() {
+    if (!Rig::train()) return;
+    if (training_ && !state_.training) {
+      training_ = false;
+      start_reference();
+    }
+    if (train_done_) {
+      train_done_ = false;
+      reply_.clear();
+      reply_.put_f(SMA_F("# train done: heater off"));
+      send();
+    }
+  }
+
+  // ---- ticks -------------------------------------------------------------------------------------
+  uint32_t ticks() const { return ticks_; }
+  // The caller's timer raised tick `raised` while the previous one ran too long: counted (status
+  // ovr=) and skipped to.
+  void overrun_to(uint32_t raised) {
+    if (live_.overruns < 0xFFFFu) ++live_.overruns;
+    ticks_ = raised;
+  }
+  // After a long EEPROM operation (heater off meanwhile): the ticks it blocked are not overruns.
+  void set_ticks(uint32_t t) { ticks_ = t; }
+
+  // ---- read access (tests, the host) -------------------------------------------------------------
+  const console::State& state() const { return state_; }
+  const Safety& safety() const { return safety_; }
+  const console::Live& live() const { return live_; }
+  const Ctl& controller() const { return ctl(); }
+  console::Limits limits() const {
+    console::Limits lim;
+    lim.g_mm = g_mm_;
+    lim.v_max = Rig::v_max();
+    lim.model = Rig::model();
+    lim.train = Rig::train();
+    lim.single = true;
+    return lim;
+  }
+  bool training() const { return training_; }
+  storage::Store<Hw>& store() { return store_; }
+
+  static SafetyConfig safety_config() {
+    SafetyConfig c;
+    c.t_limit_C = Rig::t_limit_C();
+    c.sensor_v_min = Rig::sensor_v_min();
+    c.sensor_v_max = Rig::sensor_v_max();
+    c.link_timeout_s = Rig::link_timeout_s();
+    c.dt = 1.0 / Rig::tick_hz();
+    return c;
+  }
+  static ControllerConfig controller_config() {
+    ControllerConfig c;
+    c.dt = 1.0 / Rig::tick_hz();
+    c.v_max = Rig::v_max();
+    c.gains = console::default_gains(Mode::FeedforwardPid);
+    return c;
+  }
+
+  // Effective volts -> PWM counts n of duty (V / V_supply)^2, n / (TOP + 1); below one count: 0.
+  static uint16_t pwm_counts(float v) {
+    const float top1 = static_cast<float>(Rig::pwm_top() + 1UL);
+    float duty = v / static_cast<float>(Rig::v_supply());
+    duty = duty * duty;
+    float nf = duty * top1 + 0.5f;
+    if (!(nf >= 1.0f)) nf = 0.0f;  // also NaN
+    if (nf > top1) nf = top1;
+    return static_cast<uint16_t>(nf);
+  }
+
+ private:
+  // Storage without construction at static-init time.
+  struct Models {
+    Ctl ctl;
+    SensorPredictor<T> sensor;
+  };
+  union ModelStore {
+    ModelStore() {}
+    ~ModelStore() {}
+    Models m;
+  };
+  struct Training {      // the training signal being played (train)
+    TrainingPlan plan;
+    uint32_t end_ticks;  // its length in ticks
+  };
+  union GenStore {  // the generator, or the Params while the models are built, or a training plan
+    GenStore() {}
+    ~GenStore() {}
+    Gen gen;
+    Params params;
+    Training train;
+  };
+
+  Ctl& ctl() { return models_.m.ctl; }
+  const Ctl& ctl() const { return models_.m.ctl; }
+  SensorPredictor<T>& sensor() { return models_.m.sensor; }
+  Gen& gen() { return gen_.gen; }
+
+  void send() {
+    if (reply_.len && !store_.eeprom().line(reply_.text, reply_.len) && live_.dropped < 0xFFFFu)
+      ++live_.dropped;
+  }
+
+  // The one place the models are constructed (the controller's constructor is large: inlined
+  // twice it would cost kilobytes of flash). Interrupts off meanwhile: this is the deepest stack
+  // of the firmware, no ISR frame on top of it.
+  SMA_NOINLINE void construct(const Params& p, const Effects& fx) {
+    const uint8_t s = store_.eeprom().irq_off();
+    new (&models_.m.ctl) Ctl(p, fx, controller_config());
+    if (Rig::compensate())
+      new (&models_.m.sensor) SensorPredictor<T>(ctl().inverse().curves(), p, fx, 1.0 / Rig::tick_hz());
+    g_mm_ = static_cast<float>(p.g < Rig::stroke_mm() ? p.g : Rig::stroke_mm());
+    store_.eeprom().irq_restore(s);
+  }
+
+  // A set is valid when the controller built from it is (Controller::valid(): Params::check(),
+  // Effects::check()). Reading check()'s messages would keep ~600 B of them in AVR RAM.
+  struct Validator {
+    Board* b;
+    const char* operator()(const Params& p, const Effects& fx, uint8_t& bad_key) const {
+      bad_key = storage::kNoKey;
+      b->construct(p, fx);
+      return b->ctl().valid() ? nullptr : SMA_F("invalid model");
+    }
+  };
+
+  // The paper's values into `p`: on AVR a copy of a constant in flash (the constructor's stores
+  // cost ~500 B of flash).
+#if defined(__AVR__)
+  static SMA_NOINLINE void paper_params(Params* p) {
+    static const Params kPaper PROGMEM = Params();
+    memcpy_P(p, &kPaper, sizeof(Params));
+  }
+#else
+  static SMA_NOINLINE void paper_params(Params* p) { new (p) Params(); }
+#endif
+
+  // The models from the active set in EEPROM, or the paper's values when there is none. The
+  // Params live in the generator's storage meanwhile (start_reference() afterwards).
+  SMA_NOINLINE void build_models() {
+    Params* p = &gen_.params;
+    Effects fx;
+    Validator v = {this};
+    if (!Rig::model() || store_.load(*p, fx, v) < 0) {
+      paper_params(p);
+      new (&fx) Effects();
+      construct(*p, fx);
+    }
+    p->~Params();
+  }
+
+  // (Re)starts the generator on the console's reference (State::reference()). The trajectory's
+  // Reference holds the paper's step and sine too (the console edits only its points): it is
+  // lent to the generator as the run's kind, which saves a 190-byte temporary and its
+  // construction code (flash).
+  SMA_NOINLINE void start_reference() {
+    training_ = false;
+    Reference& r = state_.traj;
+    r.kind = state_.run_kind;
+    r.constant_mm = state_.pos_mm;
+    new (&gen_.gen) Gen(r);
+    r.kind = RefKind::Trajectory;
+  }
+
+  // The model commands (storage.hpp via console::model_command) on `p`, a scratch Params.
+  // pcommit builds the models from the staged set (Validator); refused, they are rebuilt from
+  // the active set.
+  SMA_NOINLINE void model_op(const console::Command& c, Params* p) {
+    paper_params(p);  // the defaults (pbegin and pget read them when no set is active)
+    Effects fx;
+    Validator v = {this};
+    if (!console::model_command(c, store_, *p, fx, reply_, v) && c.op == console::Op::PCommit)
+      build_models();
+  }
+  // pbegin / pcommit need the heater off (the console refuses them otherwise): their scratch is
+  // the generator's storage, the reference restarts afterwards.
+  SMA_NOINLINE void model_write(const console::Command& c) {
+    model_op(c, &gen_.params);
+    ctl().set_gains(state_.gains());
+    start_reference();
+  }
+  // pset / pget / pinfo / pabort may run while heating: their scratch is on the stack.
+  SMA_NOINLINE void model_read(const console::Command& c) {
+    union Scratch {
+      Scratch() {}
+      Params p;
+    } u;
+    model_op(c, &u.p);
+  }
+
+  SMA_NOINLINE void announce_fault() {
+    fault_due_ = false;
+    reply_.clear();
+    reply_.put_f(SMA_F("# fault "));
+    reply_.put_f(fault_name(safety_.fault()));
+    reply_.put_f(SMA_F(": heater off"));
+    send();
+  }
+
+  SMA_NOINLINE void start_training(double slope) {
+    TrainingPlan* plan = &gen_.train.plan;
+#if defined(__AVR__)
+    // The paper's plan copied from flash: constructed, its arrays' initial values would sit in
+    // .data (80 B of RAM for good).
+    static const TrainingPlan kPlan PROGMEM = TrainingPlan();
+    memcpy_P(plan, &kPlan, sizeof(TrainingPlan));
+#else
+    new (plan) TrainingPlan();
+#endif
+    if (slope > 0.0) plan->slope = slope;
+    gen_.train.end_ticks = static_cast<uint32_t>(plan->duration() * Rig::tick_hz()) + 1u;
+    training_ = true;
+    run_start_ = ticks_;
+    reply_.put(' ');
+    reply_.put_fixed(plan->duration(), 1);
+    reply_.put_f(SMA_F(" s"));
+  }
+  SMA_NOINLINE float training_voltage(float t) { return static_cast<float>(gen_.train.plan.voltage_at(t)); }
+
+  // The controller, the latch and the reference follow an OK'd command: each setting only when
+  // this command sets it.
+  SMA_NOINLINE void apply(const console::Command& c, bool tele_before) {
+    using console::Op;
+    if (c.op == Op::Stop) safety_.clear();
+    if (c.op == Op::Tlim) safety_.set_limit(state_.tlim_C);
+    if (c.op == Op::Volt || c.op == Op::Train) ctl().set_voltage(from_double<T>(state_.volt));
+    const Mode m = state_.active_mode();
+    if (m != ctl().mode()) ctl().set_mode(m, last_d_);
+    if (c.op == Op::Gains || c.op == Op::SetMode) ctl().set_gains(state_.gains());
+    if (state_.run != run_seen_) {
+      run_seen_ = state_.run;
+      start_reference();
+      run_start_ = ticks_;
+    }
+    if (c.op == Op::Tele && c.on && !tele_before) header_due_ = true;  // once per start
+    if (Rig::train() && c.op == Op::Train) start_training(c.a);
+    // A training run replaced by another command: its storage back to a generator.
+    if (training_ && !state_.training) {
+      training_ = false;
+      start_reference();
+      run_start_ = ticks_;
+    }
+  }
+
+  storage::Store<Hw> store_;  // also the board's outputs (Hw)
+  ModelStore models_;
+  GenStore gen_;
+  Safety safety_;
+  console::State state_;
+  console::LineBuffer line_;
+  console::Reply reply_;
+  console::Live live_;
+  LineStatus waiting_ = LineStatus::Pending;
+  console::Op model_op_ = console::Op::Empty;
+  uint8_t model_key_ = 0;
+  float model_a_ = 0.0f;
+  uint32_t ticks_ = 0;      // ticks processed
+  uint32_t run_start_ = 0;  // tick at which the running reference started
+  uint16_t run_seen_ = 0;
+  uint16_t counts_ = 0;     // PWM counts of the last tick
+  float g_mm_ = 0.958f;     // stroke limit of pos/traj (the model's g, capped by the rig)
+  T last_d_ = T(0);         // the last compensated position (a mode change starts from it)
+  bool training_ = false;   // gen_ holds a Training (not a Gen)
+  bool train_done_ = false; // "# train done" is due
+  bool fault_due_ = false;  // "# fault" is due
+  bool header_due_ = false; // the telemetry header is due
+};
+
+}  // namespace sma
+
+#endif  // SMA_BOARD_HPP
