@@ -57,6 +57,15 @@ struct PreviewConfig {
   double deadband_mm = 1e-4;   // a reference turn smaller than this is not a turn
   double switch_margin_mm = 0.0125;  // a switch must beat waiting by this RMS error over the
                                      // horizon: small offsets of a fitted model never switch
+  // The heater's PWM (duty = (V / v_supply)^2 in pwm_top levels; 0 = continuous). On the
+  // cooling branch above the loop's T_MSi (the rise and the flat stage) the command is rounded
+  // down to a level, so the PWM's rounding never re-heats a wire that is meant to cool or hold
+  // there: a re-heat, however small, may open a new minor loop at its peak (model.md's literal
+  // reading) and start a fresh rise j (eqs 5-10). Below T_MSi a new loop passes through the
+  // wire's point with no rise (T_i < T_s), and a hold needs the PWM's nearest level: rounding
+  // down there would hold one level (~0.05 K, ~7 um on the cooling curve) too cold.
+  uint16_t pwm_top = 0;
+  double v_supply = 5.0;
 
   const char* check() const {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
@@ -69,6 +78,7 @@ struct PreviewConfig {
     if (!(cool_weight >= 0.0 && cool_weight <= 100.0)) return "cool_weight must be in 0..100";
     if (!(deadband_mm >= 0.0 && deadband_mm < 1.0)) return "deadband_mm must be in 0..1";
     if (!(switch_margin_mm >= 0.0 && switch_margin_mm < 1.0)) return "switch_margin_mm must be in 0..1";
+    if (!(v_supply >= v_max && v_supply <= 50.0)) return "v_supply must be in v_max..50";
     return nullptr;
   }
 };
@@ -145,6 +155,7 @@ class PreviewController {
     const T slope = (T_cmd - T_est_) * inv_track_;
     T v = min(thermal_.voltage_for(T_est_, slope, eps_est_, deps_), v_max_);  // eq 17
     if (!is_finite(v)) v = T(0);
+    if (!heating_ && cfg_.pwm_top > 0 && T_est_ > est_.loop_for_cooling().T_MSi) v = pwm_level_below(v);
     v_ = v;
     // The model wire follows the commanded voltage.
     T_est_ = wire_step_(T_est_, v, eps_est_, deps_);
@@ -167,6 +178,15 @@ class PreviewController {
     T_est_ = wire_step_(T_est_, T(0), eps_est_, T(0));
     eps_est_ = est_.update(T_est_);
     return v_;
+  }
+
+  // The highest PWM level at or below v (the heater's duty = (V / v_supply)^2). A hundredth of
+  // a level of slack: a wire held at a level's own steady state stays on that level instead of
+  // stepping down a level whenever the scalar's rounding lands just below it.
+  T pwm_level_below(T v) const {
+    const double x = to_double(v) / cfg_.v_supply, top = cfg_.pwm_top;
+    const double n = ::floor(x * x * top + 0.01);
+    return from_double<T>(cfg_.v_supply * ::sqrt(n / top));
   }
 
   // The branch follows the reference once it has moved with it: a turn against the branch
