@@ -16,7 +16,12 @@
 // the knots; the best result is reported. It is a bound within this family of profiles (0.5 s
 // knots), not over all profiles.
 //
-//   bench_optimal_bound [--json FILE] [--tracking JSON]
+// Each bound's profile is also replayed on plant B (both re-heat readings): how much of the
+// bound depends on the library's reading of a re-heat (docs/control.md). --plant searches on
+// plant B instead; --only restricts the problems (e.g. --only sine-ideal).
+//
+//   bench_optimal_bound [--json FILE] [--tracking JSON] [--plant library|b-rpm|b-literal]
+//                       [--only sine|multi-step|sine-ideal|...]
 #include <chrono>
 #include <cstdlib>
 #include <cstdio>
@@ -25,6 +30,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
+#include "sma_host/plant_b_rig.hpp"
 #include "sma_host/tune.hpp"
 
 using sma_host::Metrics;
@@ -34,18 +40,39 @@ namespace {
 constexpr double kKnot = 0.5;
 constexpr double kDt = 0.01;
 
+// The plant a profile runs on: the library's (the bound's own), or plant B (plant_b.hpp,
+// written apart from the library) with the library's re-heat reading or model.md's literal one.
+enum class PlantKind { Library, BRpm, BLiteral };
+const char* plant_name(PlantKind k) {
+  return k == PlantKind::Library ? "library" : k == PlantKind::BRpm ? "B (rpm)" : "B (literal)";
+}
+
 struct Problem {
   sma::Reference ref;
   bool rig_like;
   double duration;
+  PlantKind plant = PlantKind::Library;
 };
 
+template <class PlantT>
+std::vector<Sample> simulate_on(PlantT& plant, const Problem& p, const std::vector<double>& knots);
+
 std::vector<Sample> simulate(const Problem& p, const std::vector<double>& knots) {
-  sma::Params prm;
   sma::RigOptions rig = p.rig_like ? sma::RigOptions::rig_like() : sma::RigOptions();
   rig.noise_mm = 0.0;
   rig.adc_step_mm = 0.0;
-  sma::Plant plant(prm, sma::Effects(), rig);
+  if (p.plant == PlantKind::Library) {
+    sma::Plant plant{sma::Params(), sma::Effects(), rig};
+    return simulate_on(plant, p, knots);
+  }
+  sma_host::plant_b::Wire w;
+  w.return_point_memory = p.plant == PlantKind::BRpm;
+  sma_host::plant_b::RigB plant(w, sma_host::plant_b::WireEffects(), rig, kDt);
+  return simulate_on(plant, p, knots);
+}
+
+template <class PlantT>
+std::vector<Sample> simulate_on(PlantT& plant, const Problem& p, const std::vector<double>& knots) {
   sma::ReferenceGen<double> gen(p.ref);
   const long n = static_cast<long>(p.duration / kDt + 0.5);
   std::vector<Sample> out;
@@ -122,11 +149,24 @@ std::vector<double> coordinate_search(const Problem& p, std::vector<double> k, d
 int main(int argc, char** argv) {
   const char* json_path = "optimal_bound.json";
   const char* tracking = "build/bench-results/tracking.json";
+  std::string only;
+  PlantKind search_plant = PlantKind::Library;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--json") && i + 1 < argc) json_path = argv[++i];
     else if (!std::strcmp(argv[i], "--tracking") && i + 1 < argc) tracking = argv[++i];
-    else {
-      std::fprintf(stderr, "usage: %s [--json FILE] [--tracking JSON]\n", argv[0]);
+    else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
+    else if (!std::strcmp(argv[i], "--plant") && i + 1 < argc) {
+      const std::string a = argv[++i];
+      if (a == "library") search_plant = PlantKind::Library;
+      else if (a == "b-rpm") search_plant = PlantKind::BRpm;
+      else if (a == "b-literal") search_plant = PlantKind::BLiteral;
+      else {
+        std::fprintf(stderr, "--plant: unknown plant '%s' (library, b-rpm, b-literal)\n", a.c_str());
+        return 2;
+      }
+    } else {
+      std::fprintf(stderr, "usage: %s [--json FILE] [--tracking JSON] [--plant library|b-rpm|b-literal] "
+                   "[--only TEST[-CONDITION]]\n", argv[0]);
       return 2;
     }
   }
@@ -135,12 +175,15 @@ int main(int argc, char** argv) {
     Metrics m;
     double cost, wall;
     int evals;
+    Metrics on[3];  // the profile replayed on each PlantKind
   };
   std::vector<Out> outs;
   for (int sine = 1; sine >= 0; --sine)
     for (int rig = 0; rig < 2; ++rig) {
       const auto t0 = std::chrono::steady_clock::now();
-      Problem p{sine ? sma::Reference::sine() : sma::Reference::multi_step(), rig == 1, 0};
+      const std::string name = std::string(sine ? "sine" : "multi-step") + (rig ? "-rig-like" : "-ideal");
+      if (!only.empty() && name.compare(0, only.size(), only) != 0) continue;
+      Problem p{sine ? sma::Reference::sine() : sma::Reference::multi_step(), rig == 1, 0, search_plant};
       if (sine) p.ref.sine_cycles = 2.0;  // start-up period + one scored period
       p.duration = p.ref.duration();
       const size_t n_knots = static_cast<size_t>(p.duration / kKnot) + 2;
@@ -157,7 +200,12 @@ int main(int argc, char** argv) {
       }
       const Metrics m = score(p, simulate(p, best_k));
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      outs.push_back({sine ? "sine" : "multi-step", rig ? "rig-like" : "ideal", m, best, wall, evals});
+      outs.push_back({sine ? "sine" : "multi-step", rig ? "rig-like" : "ideal", m, best, wall, evals, {}});
+      for (int k = 0; k < 3; ++k) {
+        Problem q = p;
+        q.plant = static_cast<PlantKind>(k);
+        outs.back().on[k] = score(q, simulate(q, best_k));
+      }
       std::fprintf(stderr, "%s %s: cost %.4f (%d evaluations, %.0f s)\n", outs.back().test.c_str(),
                    outs.back().condition.c_str(), best, evals, wall);
     }
@@ -172,6 +220,15 @@ int main(int argc, char** argv) {
     const size_t at = obj.find(k);
     return at == std::string::npos ? std::string() : obj.substr(at + k.size(), obj.find_first_of(",}", at + k.size()) - at - k.size());
   };
+  std::printf("Bounds searched on the %s plant. The bound's voltage profile replayed open loop on each plant:\n\n"
+              "| test | condition | plant | max mm | RMS mm | max rise mm | max fall mm |\n|---|---|---|---|---|---|---|\n",
+              plant_name(search_plant));
+  for (const Out& o : outs)
+    for (int k = 0; k < 3; ++k)
+      std::printf("| %s | %s | %s | %.4f | %.4f | %.4f | %.4f |\n", o.test.c_str(), o.condition.c_str(),
+                  plant_name(static_cast<PlantKind>(k)), o.on[k].max_mm, o.on[k].rms_mm, o.on[k].max_rise_mm,
+                  o.on[k].max_fall_mm);
+  std::printf("\n");
   std::printf("Optimal open-loop bound (0.5 s knots, objective whole-run RMS + 0.1 max, true position) "
               "next to the controllers (double, tuned for the same objective):\n\n");
   std::printf("| test | condition | controller | max mm | RMS mm | max rise mm | max fall mm | wrong-way mm |\n"
@@ -199,15 +256,21 @@ int main(int argc, char** argv) {
     std::perror(json_path);
     return 1;
   }
-  std::fprintf(f, "{\n  \"knot_s\": %g,\n  \"objective\": \"whole-run RMS + 0.1 max\",\n  \"bounds\": [\n", kKnot);
+  std::fprintf(f, "{\n  \"knot_s\": %g,\n  \"objective\": \"whole-run RMS + 0.1 max\",\n  \"plant\": \"%s\",\n  \"bounds\": [\n",
+               kKnot, plant_name(search_plant));
   for (size_t i = 0; i < outs.size(); ++i) {
     const Out& o = outs[i];
     std::fprintf(f,
                  "    {\"test\": \"%s\", \"condition\": \"%s\", \"max_mm\": %.6f, \"rms_mm\": %.6f, "
                  "\"max_rise_mm\": %.6f, \"max_fall_mm\": %.6f, \"wrong_way_mm\": %.6f, \"cost\": %.6f, "
-                 "\"evaluations\": %d, \"wall_s\": %.1f}%s\n",
+                 "\"evaluations\": %d, \"wall_s\": %.1f, \"replayed\": {",
                  o.test.c_str(), o.condition.c_str(), o.m.max_mm, o.m.rms_mm, o.m.max_rise_mm, o.m.max_fall_mm,
-                 o.m.wrong_way_mm, o.cost, o.evals, o.wall, i + 1 < outs.size() ? "," : "");
+                 o.m.wrong_way_mm, o.cost, o.evals, o.wall);
+    for (int k = 0; k < 3; ++k)
+      std::fprintf(f, "\"%s\": {\"max_mm\": %.6f, \"rms_mm\": %.6f, \"max_rise_mm\": %.6f, \"max_fall_mm\": %.6f}%s",
+                   plant_name(static_cast<PlantKind>(k)), o.on[k].max_mm, o.on[k].rms_mm, o.on[k].max_rise_mm,
+                   o.on[k].max_fall_mm, k < 2 ? ", " : "");
+    std::fprintf(f, "}}%s\n", i + 1 < outs.size() ? "," : "");
   }
   std::fprintf(f, "  ]\n}\n");
   std::fclose(f);

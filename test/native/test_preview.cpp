@@ -89,6 +89,19 @@ TEST(Preview, FixedAndFloatTrackLikeDouble) {
   }
 }
 
+// Q16.16 on the ideal multi-step: every new plan puts the early switch before the 0.8 -> 0.5 mm
+// down-step a few seconds later (candidate costs that tie in its rounding), so without
+// commit_switch the switch is never made and the step is taken from the heating branch (RMS
+// ~0.095 mm, as inverse + PID). With it, Q16.16 tracks like double (within 5 um RMS).
+TEST(Preview, FixedMultiStepCommitsToPlannedSwitch) {
+  RunSetup s = preview_setup(false, false);
+  s.preview.commit_switch = true;
+  const Metrics md = run<double>(preview_setup(false, false)), mx = run<sma::Fixed>(s);
+  EXPECT_LE(mx.rms_mm, 0.05);
+  EXPECT_NEAR(mx.rms_mm, md.rms_mm, 0.005);
+  EXPECT_LE(mx.wrong_way_mm, 0.03);
+}
+
 // NaN in: heater off.
 TEST(Preview, NanGivesZeroVolts) {
   const sma::Params p;

@@ -60,13 +60,16 @@ inline bool has_sensor_effects(const sma::Effects& fx) {
 }
 
 // Mode::Preview: the PreviewController, given the reference's future as the board would
-// (ReferenceGen at t + tau). Same plant, delay and sampling as run_closed_loop.
-template <class T>
-std::vector<Sample> run_preview_loop(const RunSetup& s) {
-  sma::Plant plant(s.plant_params, s.plant_effects, s.condition.rig);
+// (ReferenceGen at t + tau). Same delay and sampling as run_closed_loop. PlantT is sma::Plant
+// or any plant with its interface (measure, displacement, applied_voltage, temperature, step),
+// e.g. plant B (plant_b_rig.hpp); s.plant_params/plant_effects are not read here.
+template <class T, class PlantT>
+std::vector<Sample> run_preview_loop_on(PlantT& plant, const RunSetup& s) {
   sma::PreviewConfig pc = s.preview;
   pc.dt = s.config.dt;
   pc.v_max = s.config.v_max;
+  pc.pwm_top = static_cast<uint16_t>(s.condition.rig.pwm_top);  // the board knows its PWM
+  pc.v_supply = s.condition.rig.v_supply;
   sma::PreviewController<T> ctl(s.model_params, s.model_effects, pc);
   sma::ReferenceGen<T> ref(s.reference);
   const double dt = s.config.dt;
@@ -92,9 +95,15 @@ std::vector<Sample> run_preview_loop(const RunSetup& s) {
 }
 
 template <class T>
-std::vector<Sample> run_closed_loop(const RunSetup& s) {
-  if (s.mode == sma::Mode::Preview) return run_preview_loop<T>(s);
+std::vector<Sample> run_preview_loop(const RunSetup& s) {
   sma::Plant plant(s.plant_params, s.plant_effects, s.condition.rig);
+  return run_preview_loop_on<T>(plant, s);
+}
+
+// Any controller mode against a given plant (see run_preview_loop_on for PlantT).
+template <class T, class PlantT>
+std::vector<Sample> run_closed_loop_on(PlantT& plant, const RunSetup& s) {
+  if (s.mode == sma::Mode::Preview) return run_preview_loop_on<T>(plant, s);
   sma::Controller<T> ctl(s.model_params, s.model_effects, s.config);
   sma::ReferenceGen<T> ref(s.reference);
   const double dt = s.config.dt;
@@ -124,6 +133,12 @@ std::vector<Sample> run_closed_loop(const RunSetup& s) {
     plant.step(v, dt);
   }
   return out;
+}
+
+template <class T>
+std::vector<Sample> run_closed_loop(const RunSetup& s) {
+  sma::Plant plant(s.plant_params, s.plant_effects, s.condition.rig);
+  return run_closed_loop_on<T>(plant, s);
 }
 
 }  // namespace sma_host

@@ -57,6 +57,19 @@ struct PreviewConfig {
   double deadband_mm = 1e-4;   // a reference turn smaller than this is not a turn
   double switch_margin_mm = 0.0125;  // a switch must beat waiting by this RMS error over the
                                      // horizon: small offsets of a fitted model never switch
+  // The heater's PWM (duty = (V / v_supply)^2 in pwm_top levels; 0 = continuous). On the
+  // cooling branch above the loop's T_MSi (the rise and the flat stage) the command is rounded
+  // down to a level, so the PWM's rounding never re-heats a wire that is meant to cool or hold
+  // there: a re-heat, however small, may open a new minor loop at its peak (model.md's literal
+  // reading) and start a fresh rise j (eqs 5-10). Below T_MSi a new loop passes through the
+  // wire's point with no rise (T_i < T_s), and a hold needs the PWM's nearest level: rounding
+  // down there would hold one level (~0.05 K, ~7 um on the cooling curve) too cold.
+  uint16_t pwm_top = 0;
+  double v_supply = 5.0;
+  // Make a planned switch when its time comes (the plan is ~0.6 s old when it is decided)
+  // instead of only a switch planned for "now". Off by default: docs/control.md has the
+  // trade (better rig-like sine and Q16.16 multi-step, worse ideal sine in double).
+  bool commit_switch = false;
 
   const char* check() const {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
@@ -69,6 +82,7 @@ struct PreviewConfig {
     if (!(cool_weight >= 0.0 && cool_weight <= 100.0)) return "cool_weight must be in 0..100";
     if (!(deadband_mm >= 0.0 && deadband_mm < 1.0)) return "deadband_mm must be in 0..1";
     if (!(switch_margin_mm >= 0.0 && switch_margin_mm < 1.0)) return "switch_margin_mm must be in 0..1";
+    if (!(v_supply >= v_max && v_supply <= 50.0)) return "v_supply must be in v_max..50";
     return nullptr;
   }
 };
@@ -94,8 +108,8 @@ class PreviewController {
         inv_track_(from_double<T>(1.0 / cfg.track_s)),
         d_alpha_(from_double<T>(1.0 - ::exp(-cfg.dt / cfg.offset_tau_s))),
         cool_w_(from_double<T>(cfg.cool_weight)),
-        switch_margin_(from_double<T>(100.0 * cfg.switch_margin_mm * cfg.switch_margin_mm *
-                                      (cfg.horizon_s / cfg.grid_s))),
+        switch_margin_(from_double<T>(100.0 * cfg.switch_margin_mm * cfg.switch_margin_mm)),
+        inv_n_(from_double<T>(1.0 / static_cast<int>(cfg.horizon_s / cfg.grid_s + 0.5))),
         deadband_(from_double<T>(cfg.deadband_mm)),
         n_grid_(static_cast<uint8_t>(cfg.horizon_s / cfg.grid_s + 0.5)),
         valid_(p.check() == nullptr && fx.check() == nullptr && cfg.check() == nullptr) {
@@ -119,6 +133,7 @@ class PreviewController {
     eps_est_ = est_.eps();
     deps_ = T(0);
     d_ = T(0);
+    switch_due_ = 0;
     heating_ = true;
     moved_with_ = true;
     ref_extreme_ = mech_.displacement(eps_est_);
@@ -137,6 +152,7 @@ class PreviewController {
     // Integral action: the offset between the wire and the model wire.
     d_ = d_ + d_alpha_ * ((measured - mech_.displacement(eps_est_)) - d_);
     follow_reference(ref);
+    if (switch_due_ > 0 && --switch_due_ == 0) switch_branch();
     plan(future);
     // The commanded temperature: this branch's inverse of the reference track_s ahead.
     T r_lead = future(from_double<T>(cfg_.track_s));
@@ -145,6 +161,7 @@ class PreviewController {
     const T slope = (T_cmd - T_est_) * inv_track_;
     T v = min(thermal_.voltage_for(T_est_, slope, eps_est_, deps_), v_max_);  // eq 17
     if (!is_finite(v)) v = T(0);
+    if (!heating_ && cfg_.pwm_top > 0 && T_est_ > est_.loop_for_cooling().T_MSi) v = pwm_level_below(v);
     v_ = v;
     // The model wire follows the commanded voltage.
     T_est_ = wire_step_(T_est_, v, eps_est_, deps_);
@@ -169,6 +186,15 @@ class PreviewController {
     return v_;
   }
 
+  // The highest PWM level at or below v (the heater's duty = (V / v_supply)^2). A hundredth of
+  // a level of slack: a wire held at a level's own steady state stays on that level instead of
+  // stepping down a level whenever the scalar's rounding lands just below it.
+  T pwm_level_below(T v) const {
+    const double x = to_double(v) / cfg_.v_supply, top = cfg_.pwm_top;
+    const double n = ::floor(x * x * top + 0.01);
+    return from_double<T>(cfg_.v_supply * ::sqrt(n / top));
+  }
+
   // The branch follows the reference once it has moved with it: a turn against the branch
   // (beyond the deadband, from the last extreme) switches it.
   void follow_reference(T ref) {
@@ -188,6 +214,7 @@ class PreviewController {
       heating_ = !heating_;
       ref_extreme_ = ref;
       moved_with_ = true;  // the reference already moves with the new branch
+      switch_due_ = 0;
       restart_plan();
     }
   }
@@ -201,6 +228,14 @@ class PreviewController {
     // Still above the end of the rise and asked to stay or go up: ride the rise (eqs 5-6).
     if (Tw > L.T_ii && !(eps_t < h.eps())) return min(Tw, curves_.rise_temperature(L, eps_t));
     return min(Tw, curves_.cool_temperature(L, eps_t));
+  }
+
+  void switch_branch() {
+    heating_ = !heating_;
+    moved_with_ = false;
+    ref_extreme_ = ref_now_;
+    switch_due_ = 0;
+    restart_plan();
   }
 
   void restart_plan() {
@@ -237,10 +272,16 @@ class PreviewController {
         }
         if (++cand_ >= kCandidates) {
           ++plans_;
-          if (best_ == 0 && best_cost_ < natural_cost_ - switch_margin_) {  // switch now
-            heating_ = !heating_;
-            moved_with_ = false;
-            ref_extreme_ = ref_now_;
+          // commit_switch: a timed switch that wins is kept as a commitment (due when its time
+          // comes, unless a later plan prefers otherwise); without it only "now" switches, and
+          // a switch that every new plan puts a few seconds later is never made.
+          switch_due_ = 0;
+          if (cfg_.commit_switch && best_ != kNever && best_cost_ < natural_cost_ - switch_margin_) {
+            const long due = static_cast<long>(best_ * cfg_.grid_s / cfg_.dt + 0.5) - elapsed_ticks_;
+            if (due <= 0) switch_branch();
+            else switch_due_ = static_cast<uint16_t>(due);
+          } else if (best_ == 0 && best_cost_ < natural_cost_ - switch_margin_) {
+            switch_branch();
           }
           restart_plan();
           return;
@@ -287,7 +328,9 @@ class PreviewController {
     const T r_before = j_ ? r_[j_ - 1] : ref_now_;
     if (r < r_before - deadband_) sim_fall_ = true;
     if (r > r_before + deadband_) sim_fall_ = false;
-    cost_ = cost_ + (sim_fall_ ? cool_w_ : T(1)) * e2 * (T(1) + e2);
+    // The mean over the horizon, not the sum: Q16.16 (max 32767) holds it for any error of the
+    // stroke (e2 (1 + e2) <= ~8600 at 0.96 mm) and any cool_weight <= 100 on a 32-40 step grid.
+    cost_ = cost_ + (sim_fall_ ? cool_w_ : T(1)) * (e2 * (T(1) + e2) * inv_n_);
     ++j_;
   }
 
@@ -300,7 +343,8 @@ class PreviewController {
   Hysteresis<T> est_;    // loop memory of the model wire
   Hysteresis<T> sim_h_;  // its copy, walked by the plan
   T v_max_, inv_dt_, inv_track_, d_alpha_, cool_w_;
-  T switch_margin_;  // cost units: (0.1 mm)^2 grid steps
+  T switch_margin_;  // cost units: (0.1 mm)^2, a mean over the horizon's grid steps
+  T inv_n_;          // 1 / grid steps of the horizon
   T deadband_;
   uint8_t n_grid_;
   bool valid_;
@@ -314,6 +358,7 @@ class PreviewController {
   T r_[kMaxGrid];
   uint8_t cand_ = 0, j_ = 0, best_ = kNever;
   uint16_t elapsed_ticks_ = 0, plans_ = 0;
+  uint16_t switch_due_ = 0;  // ticks until a planned branch switch, 0 = none
   T best_cost_ = T(-1), natural_cost_ = T(0), cost_ = T(0), sim_T_ = T(22), sim_ext_ = T(0);
   bool sim_heat_ = true, sim_moved_ = true, sim_fall_ = false;
 };

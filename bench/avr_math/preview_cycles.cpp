@@ -1,0 +1,60 @@
+// Cycles of the preview controller's tick (preview.hpp) on the ATmega328P, for the simavr runner
+// (cycles.c protocol: GPIOR1 group names, GPIOR0 1/2 around each sample). One sample = one call
+// of PreviewController::step with the reference and its future from ReferenceGen (the sine,
+// 15 s from t = 40 s: a peak, the fall and its switch), as the board's control section would
+// run it. The measured position is the reference (the loop's plant is not on the chip).
+// Built twice (float, and -DSMA_PREVIEW_FIXED for Q16.16: both do not fit 32 KB together).
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <avr/sleep.h>
+#include "sma/fixed.hpp"
+#include "sma/preview.hpp"
+#include "sma/reference.hpp"
+
+namespace {
+volatile float g_sink;
+
+void group(const char* name) {
+  while (*name != '\0') GPIOR1 = static_cast<uint8_t>(*name++);
+  GPIOR1 = 0;
+}
+
+template <class T>
+__attribute__((noinline)) void run(const char* name, uint8_t steps_per_tick, bool pwm) {
+  group(name);
+  sma::PreviewConfig cfg;
+  cfg.steps_per_tick = steps_per_tick;
+  if (pwm) cfg.pwm_top = 15999;  // the firmware's 14-bit PWM at 1 kHz
+  sma::PreviewController<T> c(sma::Params(), sma::Effects(), cfg);
+  sma::ReferenceGen<T> ref(sma::Reference::sine());
+  T measured = T(0);
+  for (int k = 0; k < 1500; ++k) {
+    const double t = 40.0 + 0.01 * k;
+    auto future = [&](T tau) { return ref.at(t + sma::to_double(tau)); };
+    GPIOR0 = 1;
+    const T r = ref.at(t);
+    const T v = c.step(r, future, measured);
+    GPIOR0 = 2;
+    g_sink = static_cast<float>(sma::to_double(v));
+    measured = r;
+  }
+}
+}  // namespace
+
+int main() {
+#ifdef SMA_PREVIEW_FIXED
+  run<sma::Fixed>("fixed.steps1.pwm", 1, true);
+  run<sma::Fixed>("fixed.steps1", 1, false);
+#else
+  run<float>("float.steps4.pwm", 4, true);
+  run<float>("float.steps4", 4, false);
+  run<float>("float.steps1.pwm", 1, true);
+  run<float>("float.steps1", 1, false);
+#endif
+  for (uint8_t i = 0; i < 5; ++i) GPIOR2 = 0;  // no self-check here: report a pass
+  cli();
+  sleep_enable();
+  sleep_cpu();
+  for (;;) {
+  }
+}
