@@ -9,7 +9,7 @@
 
 #include <math.h>
 #include <stdint.h>
-#include "sma/plant.hpp"
+#include "sma_host/plant.hpp"
 #include "sma_host/plant_b.hpp"
 #include "sma_host/plant_b_sensor.hpp"
 
