@@ -202,6 +202,43 @@ def open_port(url, baud, prog, err, exclusive=True):
         return None
 
 
+def params_helper(prog, err):
+    """The sma_params helper (built or found), or None after a message."""
+    from . import build
+
+    try:
+        return build.tool("sma_params")
+    except build.BuildError as e:
+        err.write("%s: %s\n" % (prog, e))
+        return None
+
+
+def board_exchange(prog, args, port, err, exchange, refused):
+    """Opens args.port (unless `port` is given), runs exchange(ConsoleClient) and closes the port;
+    the exit code of `sma upload` / `sma download`: 0 ok, 1 a `refused` exception (an ERR, a bad
+    answer), 2 the port cannot be opened, 3 link lost, 4 no reply; each failure named on `err`."""
+    if port is None:
+        port = open_port(args.port, args.baud, prog, err)
+        if port is None:
+            return 2
+    try:
+        exchange(ConsoleClient(port))
+        return 0
+    except refused as e:
+        err.write("%s: %s\n" % (prog, e))
+        return 1
+    except LinkLost as e:
+        err.write("%s: link lost: %s\n" % (prog, e))
+        return 3
+    except TimeoutError as e:
+        err.write("%s: %s\n" % (prog, e))
+        return 4
+    finally:
+        close = getattr(port, "close", None)
+        if close:
+            close()
+
+
 def run(args, port=None, stdin=None, out=sys.stdout, err=sys.stderr):
     """The `sma console` command. Returns the exit code: 0 ok, 1 ERR reply to a --send command,
     2 port cannot be opened, 3 link lost, 4 no reply, 5 --until text not seen within --duration,

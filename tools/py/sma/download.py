@@ -57,40 +57,24 @@ def to_json(pairs, helper):
 
 def run(args, port=None, out=sys.stdout, err=sys.stderr, helper=None):
     """The `sma download` command; returns the exit code."""
+    helper = helper or console.params_helper("sma download", err)
     if helper is None:
-        from . import build
-
-        try:
-            helper = build.tool("sma_params")
-        except build.BuildError as e:
-            err.write("sma download: %s\n" % e)
-            return 2
+        return 2
     try:
         keys = board_keys(helper)
     except (ValueError, OSError) as e:
         err.write("sma download: %s\n" % e)
         return 2
-    if port is None:
-        port = console.open_port(args.port, args.baud, "sma download", err)
-        if port is None:
-            return 2
-    c = console.ConsoleClient(port)
-    try:
-        info, pairs = download(c, keys, timeout=args.timeout)
-        text = to_json(pairs, helper)
-    except (DownloadError, ValueError) as e:
-        err.write("sma download: %s\n" % e)
-        return 1
-    except console.LinkLost as e:
-        err.write("sma download: link lost: %s\n" % e)
-        return 3
-    except TimeoutError as e:
-        err.write("sma download: %s\n" % e)
-        return 4
-    finally:
-        close = getattr(port, "close", None)
-        if close:
-            close()
+    got = {}
+
+    def exchange(c):
+        got["info"], got["pairs"] = download(c, keys, timeout=args.timeout)
+        got["text"] = to_json(got["pairs"], helper)
+
+    rc = console.board_exchange("sma download", args, port, err, exchange, (DownloadError, ValueError))
+    if rc != 0:
+        return rc
+    info, pairs, text = got["info"], got["pairs"], got["text"]
     try:
         with open(args.output, "w") as f:
             f.write(text)

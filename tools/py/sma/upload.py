@@ -141,40 +141,22 @@ def upload(client, keys, out=sys.stdout, timeout=2.0, write_timeout=10.0):
 
 def run(args, port=None, out=sys.stdout, err=sys.stderr, helper=None):
     """The `sma upload` command; returns the exit code."""
+    helper = helper or console.params_helper("sma upload", err)
     if helper is None:
-        from . import build
-
-        try:
-            helper = build.tool("sma_params")
-        except build.BuildError as e:
-            err.write("sma upload: %s\n" % e)
-            return 2
+        return 2
     try:
         keys = read_keys(args.params, helper)
     except (ValueError, OSError) as e:
         err.write("sma upload: %s\n" % e)
         return 1
-    if port is None:
-        port = console.open_port(args.port, args.baud, "sma upload", err)
-        if port is None:
-            return 2
-    c = console.ConsoleClient(port)
-    try:
+
+    def exchange(c):
         if args.stop:
             c.send("stop", timeout=args.timeout, check=False)
         upload(c, keys, out=out, timeout=args.timeout)
-    except UploadError as e:
-        err.write("sma upload: %s\n" % e)
-        return 1
-    except console.LinkLost as e:
-        err.write("sma upload: link lost: %s\n" % e)
-        return 3
-    except TimeoutError as e:
-        err.write("sma upload: %s\n" % e)
-        return 4
-    finally:
-        close = getattr(port, "close", None)
-        if close:
-            close()
+
+    rc = console.board_exchange("sma upload", args, port, err, exchange, UploadError)
+    if rc != 0:
+        return rc
     out.write("sma upload: %d keys of %s verified on the board\n" % (len(keys), args.params))
     return 0
