@@ -180,17 +180,22 @@ def test_dashboard_in_headless_chromium(board, tmp_path):
         dash.close()
 
 
-def test_a_port_that_cannot_be_opened_is_named_on_the_page_and_in_the_terminal(tmp_path):
-    dash = Dashboard(str(tmp_path), "/dev/nonexistent-sma-port")
+def assert_port_error_shown(tmp_path, port, text):
+    """The dashboard started on a port it cannot take: `text` on the page and in the terminal."""
+    dash = Dashboard(str(tmp_path), port)
     browser = chromium_driver()
     try:
         browser.get(dash.url)
         err = wait_for(lambda: browser.find_element("id", "error").text, 10, "the error on the page")
-        assert "cannot open /dev/nonexistent-sma-port" in err
-        assert "cannot open /dev/nonexistent-sma-port" in dash.terminal()
+        assert text in err
+        assert text in dash.terminal()
     finally:
         browser.quit()
         dash.close()
+
+
+def test_a_port_that_cannot_be_opened_is_named_on_the_page_and_in_the_terminal(tmp_path):
+    assert_port_error_shown(tmp_path, "/dev/nonexistent-sma-port", "cannot open /dev/nonexistent-sma-port")
 
 
 def test_a_port_in_use_is_named(board, tmp_path):
@@ -199,16 +204,7 @@ def test_a_port_in_use_is_named(board, tmp_path):
                                "--status", "0"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         time.sleep(2.0)
-        dash = Dashboard(str(tmp_path), board.port)
-        browser = chromium_driver()
-        try:
-            browser.get(dash.url)
-            err = wait_for(lambda: browser.find_element("id", "error").text, 10, "the error on the page")
-            assert "in use by another program" in err
-            assert "in use by another program" in dash.terminal()
-        finally:
-            browser.quit()
-            dash.close()
+        assert_port_error_shown(tmp_path, board.port, "in use by another program")
     finally:
         holder.send_signal(signal.SIGINT)
         holder.wait(timeout=20)

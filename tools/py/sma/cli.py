@@ -144,6 +144,16 @@ def cmd_console(args):
     return console.run(args)
 
 
+LINK_EXITS = "2 port, 3 link lost, 4 no reply."  # console.board_exchange
+
+
+def _board_link(parser, port_help, timeout_help):
+    """--port, --baud, --timeout: the serial link of the commands that talk to the board."""
+    parser.add_argument("--port", required=True, help=port_help)
+    parser.add_argument("--baud", type=int, default=115200)
+    parser.add_argument("--timeout", type=float, default=2.0, help=timeout_help)
+
+
 def make_parser():
     p = argparse.ArgumentParser(prog="sma", description=__doc__, epilog=EPILOG,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -169,8 +179,7 @@ def make_parser():
                                    "as loop://), sends commands and waits for their OK/ERR, shows live "
                                    "status lines from the telemetry, records it as a rig log, and sends "
                                    "'stop' on Ctrl-C, at the end (unless --no-stop) and when the link is lost.")
-    c.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyACM0, /dev/pts/3, loop://")
-    c.add_argument("--baud", type=int, default=115200)
+    _board_link(c, "serial port, e.g. /dev/ttyACM0, /dev/pts/3, loop://", "reply timeout (s)")
     c.add_argument("--send", action="append", metavar="CMD",
                    help="command to send first (repeatable), e.g. --send 'tele on' --send 'pos 0.4'")
     c.add_argument("--record", metavar="FILE.csv", help="record the telemetry rows to a rig log")
@@ -181,7 +190,6 @@ def make_parser():
     c.add_argument("-i", "--interactive", action="store_true", help="read commands from stdin")
     c.add_argument("--status", type=float, default=1.0, metavar="S",
                    help="status line period (s), 0 = none (default 1)")
-    c.add_argument("--timeout", type=float, default=2.0, help="reply timeout (s)")
     c.add_argument("--progress", type=float, metavar="S",
                    help="the run takes S seconds of board time (e.g. a training run): show a bar with "
                         "the time left (a terminal) or a line every 10 s (a log) instead of status lines")
@@ -194,11 +202,9 @@ def make_parser():
                                    "sends pbegin, pset for every key, pcommit, then reads every key "
                                    "back with pget. Any ERR or mismatch before the commit sends pabort: "
                                    "the board keeps its old set. The heater must be off (see --stop). "
-                                   "Exit codes: 0 ok, 1 bad file/ERR/mismatch, 2 port, 3 link lost, 4 no reply.")
+                                   "Exit codes: 0 ok, 1 bad file/ERR/mismatch, " + LINK_EXITS)
     u.add_argument("params", metavar="PARAMS.json")
-    u.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyACM0, /tmp/simavr-uart0")
-    u.add_argument("--baud", type=int, default=115200)
-    u.add_argument("--timeout", type=float, default=2.0, help="reply timeout (s) of pget/pinfo")
+    _board_link(u, "serial port, e.g. /dev/ttyACM0, /tmp/simavr-uart0", "reply timeout (s) of pget/pinfo")
     u.add_argument("--stop", action="store_true", help="send stop first (heater off)")
 
     from . import dashboard
@@ -209,11 +215,9 @@ def make_parser():
                         description="Reads every key of the board's active model with pget (the stored "
                                     "float32 bits, exactly) and writes it as a params JSON (interfaces.md), "
                                     "which `sma upload` restores. Exit codes: 0 ok, 1 ERR/bad answer/bad set, "
-                                    "2 port, 3 link lost, 4 no reply.")
-    dl.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyACM0, /tmp/simavr-uart0")
+                                    + LINK_EXITS)
+    _board_link(dl, "serial port, e.g. /dev/ttyACM0, /tmp/simavr-uart0", "reply timeout (s)")
     dl.add_argument("-o", "--output", required=True, metavar="FILE.json")
-    dl.add_argument("--baud", type=int, default=115200)
-    dl.add_argument("--timeout", type=float, default=2.0, help="reply timeout (s)")
     return p
 
 

@@ -9,11 +9,27 @@ The protocol handling (ConsoleClient) works on any object with `write(bytes)` an
 recording, and sends `stop` on Ctrl-C, at the end, and when the link is lost.
 """
 import math
+import re
 import sys
 import time
 
 TELE_HEADER = "t_s,v_V,d_mm,ref_mm,duty"
 TELE_COLUMNS = TELE_HEADER.split(",")
+
+
+# A plotter line: Teleplot's `>name:value[|flags]` (or `>name:time_ms:value`), or the Arduino
+# Serial Plotter's numbers, bare or `label:value`, separated by commas, spaces or tabs.
+_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_PLOTTER_FIELD = re.compile(r"^(?:[A-Za-z_][\w.\-]*:)?%s$" % _NUMBER)
+PLOTTER_NOTE = ("the board streams plotter lines (Teleplot / Serial Plotter): ignored here; "
+                "'tele on' gives the rig-log telemetry that is plotted and recorded")
+
+
+def is_plotter_line(s):
+    if s.startswith(">"):
+        return True
+    fields = [f for f in re.split(r"[,\s]+", s) if f]
+    return bool(fields) and all(_PLOTTER_FIELD.match(f) for f in fields)
 
 
 class LinkLost(Exception):
@@ -26,7 +42,7 @@ class CommandError(Exception):
 
 def classify(line):
     """-> (kind, payload): 'reply' (ok: bool, text), 'header', 'row' (tuple of 5 floats),
-    'comment' (text), 'empty', or 'other' (text)."""
+    'comment' (text), 'empty', 'plotter' (text: a Teleplot / Serial Plotter line), or 'other'."""
     s = line.strip()
     if not s:
         return "empty", None
@@ -46,6 +62,8 @@ def classify(line):
                 return "row", vals
         except ValueError:
             pass
+    if is_plotter_line(s):
+        return "plotter", s
     return "other", s
 
 
@@ -93,6 +111,7 @@ class ConsoleClient:
         self.last_row = None
         self.rows = 0
         self.other = 0
+        self.plotter = 0  # Teleplot / Serial Plotter lines: counted, named once, not echoed
         self.until = None        # text awaited in a comment or other line (--until)
         self.until_seen = False
 
@@ -138,6 +157,10 @@ class ConsoleClient:
         elif kind == "other":
             self.other += 1
             self.echo(payload)
+        elif kind == "plotter":
+            self.plotter += 1
+            if self.plotter == 1:
+                self.echo("(%s)" % PLOTTER_NOTE)
         if self.until and kind in ("comment", "other") and self.until in payload:
             self.until_seen = True
 

@@ -55,6 +55,7 @@ class Rig:
         self.nlines = 0
         self.status = {}
         self.status_seq = 0
+        self.plotter_named = False
         self.pending = []         # commands sent, waiting for their reply: [cmd, event, reply, quiet]
         self.recorder = None
         self.rec_file = None
@@ -169,6 +170,11 @@ class Rig:
             if entry is not None:
                 entry[2] = text
                 entry[1].set()
+        elif kind == "plotter":
+            if not self.plotter_named:  # named once, on the page and in the terminal
+                self.plotter_named = True
+                self.lines_append("info", console.PLOTTER_NOTE)
+                self.log(console.PLOTTER_NOTE)
         elif kind in ("comment", "other"):
             self.lines_append("comment", ("# " if kind == "comment" else "") + payload)
             if self.recorder and kind == "comment":

@@ -28,6 +28,35 @@ def _decimate(n, limit=20000):
     return max(1, n // limit)
 
 
+def _save(plt, fig, path):
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _finish_time_panels(ax, t, v):
+    """The voltage panel at the bottom of a time plot, and the grid on every panel."""
+    ax[-1].plot(t, v, lw=1, color="tab:red")
+    ax[-1].set_ylabel("voltage v_V (V)")
+    ax[-1].set_xlabel("time (s)")
+    for a in ax:
+        a.grid(alpha=0.3)
+
+
+def _vs_temperature(plt, T, curves, xlabel, ylabel, title, path):
+    """One figure of curves (label, y, style) against the wire temperature; -> path."""
+    fig, ax = plt.subplots(figsize=(7, 5.5))
+    for label, y, style in curves:
+        ax.plot(T, y, label=label, **style)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    return _save(plt, fig, path)
+
+
 def plot_log(replay_csv, out_dir, title):
     """replay_csv: the output of `sma_sim --replay` (log columns + d_model_mm, T_model_C)."""
     plt = _mpl()
@@ -50,28 +79,13 @@ def plot_log(replay_csv, out_dir, title):
     ax[1].axhline(0, color="k", lw=0.5)
     ax[1].set_ylabel("error (mm)")
     ax[1].legend(loc="best", fontsize=8)
-    ax[2].plot(t, d["v_V"][::k], lw=1, color="tab:red")
-    ax[2].set_ylabel("voltage v_V (V)")
-    ax[2].set_xlabel("time (s)")
-    for a in ax:
-        a.grid(alpha=0.3)
-    fig.tight_layout()
-    p1 = os.path.join(out_dir, "log_time.png")
-    fig.savefig(p1, dpi=110)
-    plt.close(fig)
-
-    fig, ax = plt.subplots(figsize=(7, 5.5))
-    ax.plot(d["T_model_C"][::k], d["d_mm"][::k], lw=1, label="measured d_mm")
-    ax.plot(d["T_model_C"][::k], d["d_model_mm"][::k], lw=1, ls="--", label="model")
-    ax.set_xlabel("wire temperature from the model (degC)")
-    ax.set_ylabel("displacement (mm)")
-    ax.set_title(title + ": displacement vs model temperature")
-    ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
-    p2 = os.path.join(out_dir, "log_hysteresis.png")
-    fig.savefig(p2, dpi=110)
-    plt.close(fig)
+    _finish_time_panels(ax, t, d["v_V"][::k])
+    p1 = _save(plt, fig, os.path.join(out_dir, "log_time.png"))
+    p2 = _vs_temperature(plt, d["T_model_C"][::k],
+                         [("measured d_mm", d["d_mm"][::k], {"lw": 1}),
+                          ("model", d["d_model_mm"][::k], {"lw": 1, "ls": "--"})],
+                         "wire temperature from the model (degC)", "displacement (mm)",
+                         title + ": displacement vs model temperature", os.path.join(out_dir, "log_hysteresis.png"))
     return [p1, p2]
 
 
@@ -102,45 +116,22 @@ def plot_fit(out_dir):
         ax[1].plot(t, d["d_fit_mm"] - d["d_mm"], lw=1)
         ax[1].axhline(0, color="k", lw=0.5)
         ax[1].set_ylabel("fit - measured (mm)")
-        ax[2].plot(t, d["v_V"], lw=1, color="tab:red")
-        ax[2].set_ylabel("v_V (V)")
-        ax[2].set_xlabel("time (s)")
-        for a in ax:
-            a.grid(alpha=0.3)
-        fig.tight_layout()
-        p = os.path.join(out_dir, "%s_time.png" % label)
-        fig.savefig(p, dpi=110)
-        plt.close(fig)
-        written.append(p)
+        _finish_time_panels(ax, t, d["v_V"])
+        written.append(_save(plt, fig, os.path.join(out_dir, "%s_time.png" % label)))
         if label != "training":
             continue
-        # Fig. 5: austenite fraction vs temperature (model loops; "measured" = (d - offset)/(gain g)).
         T = d["T_fit_C"]
-        fig, ax = plt.subplots(figsize=(7, 5.5))
-        ax.plot(T, (d["d_mm"] - offset) / (gain * g), lw=0.8, color="0.6", label="measured (d - offset) / g")
-        ax.plot(T, d["eps_fit"], lw=1.2, color="tab:red", label="fitted model")
-        ax.set_xlabel("wire temperature, fitted model (degC)")
-        ax.set_ylabel("austenite fraction")
-        ax.set_title("Austenite fraction vs temperature (cf. paper Fig. 5)")
-        ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=8)
-        fig.tight_layout()
-        p = os.path.join(out_dir, "fit_fraction.png")
-        fig.savefig(p, dpi=110)
-        plt.close(fig)
-        written.append(p)
+        xlabel = "wire temperature, fitted model (degC)"
+        # Fig. 5: austenite fraction vs temperature (model loops; "measured" = (d - offset)/(gain g)).
+        written.append(_vs_temperature(
+            plt, T, [("measured (d - offset) / g", (d["d_mm"] - offset) / (gain * g), {"lw": 0.8, "color": "0.6"}),
+                     ("fitted model", d["eps_fit"], {"lw": 1.2, "color": "tab:red"})],
+            xlabel, "austenite fraction", "Austenite fraction vs temperature (cf. paper Fig. 5)",
+            os.path.join(out_dir, "fit_fraction.png")))
         # Fig. 6: displacement vs temperature, measured vs fitted.
-        fig, ax = plt.subplots(figsize=(7, 5.5))
-        ax.plot(T, d["d_mm"], lw=0.8, label="measured")
-        ax.plot(T, d["d_fit_mm"], lw=1.2, color="tab:red", ls="--", label="fitted model")
-        ax.set_xlabel("wire temperature, fitted model (degC)")
-        ax.set_ylabel("displacement (mm)")
-        ax.set_title("Displacement vs temperature (cf. paper Fig. 6)")
-        ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=8)
-        fig.tight_layout()
-        p = os.path.join(out_dir, "fit_displacement.png")
-        fig.savefig(p, dpi=110)
-        plt.close(fig)
-        written.append(p)
+        written.append(_vs_temperature(
+            plt, T, [("measured", d["d_mm"], {"lw": 0.8}),
+                     ("fitted model", d["d_fit_mm"], {"lw": 1.2, "color": "tab:red", "ls": "--"})],
+            xlabel, "displacement (mm)", "Displacement vs temperature (cf. paper Fig. 6)",
+            os.path.join(out_dir, "fit_displacement.png")))
     return written
