@@ -13,6 +13,7 @@
 #include <iostream>
 #include <sstream>
 #include "sma_host/discrepancy.hpp"
+#include "sma_host/progress.hpp"
 #include "sma_host/residual_analysis.hpp"
 #include "sma_host/residuals.hpp"
 #include "sma_tools/cli.hpp"
@@ -164,11 +165,11 @@ int run(int argc, char** argv) {
 
   const sma_host::RigLog& log = file;
   std::cerr << "discrepancy: " << log.size() << " samples, " << number(file.duration()) << " s\n";
-  const sma_host::Diagnosis d = sma_host::diagnose(
-      model.p, log, opt,
-      [](const char* name) { std::cerr << "\r  fitting candidate " << name << "                 " << std::flush; },
-      model.fx);
-  std::cerr << "\r" << std::string(60, ' ') << "\r";
+  sma_host::RoundsProgress rounds("discrepancy: candidate effects fitted",
+                                 double(sma_host::vocabulary().size() - sma_host::present_effects(model.fx).size()));
+  const sma_host::Diagnosis d =
+      sma_host::diagnose(model.p, log, opt, [&rounds](const char*) { rounds.tick(); }, model.fx);
+  rounds.finish();
 
   // What a user must know before trusting the named effects.
   std::vector<std::string> warnings;

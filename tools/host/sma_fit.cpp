@@ -23,6 +23,7 @@
 #include <unsupported/Eigen/NonLinearOptimization>
 
 #include "sma_host/initial_guess.hpp"
+#include "sma_host/lm_progress.hpp"
 #include "sma_tools/cli.hpp"
 #include "sma_tools/params_json.hpp"
 #include "sma_tools/replay.hpp"
@@ -547,7 +548,7 @@ int run(int argc, char** argv) {
         lm1.parameters.xtol = 1e-5;
         lm1.parameters.ftol = 1e-6;
         lm1.parameters.factor = 10.0;
-        lm1.minimize(x1);
+        sma_host::minimize_reporting(lm1, x1, "fit stage 1");
         Eigen::VectorXd r1;
         const Model m1 = p1.model_at(x1);
         if (!p1.residual_at(x1, r1)) continue;
@@ -682,7 +683,7 @@ int run(int argc, char** argv) {
   lm.parameters.xtol = 1e-6;
   lm.parameters.ftol = 1e-8;
   lm.parameters.factor = 10.0;
-  const int status = static_cast<int>(lm.minimize(x));
+  const int status = sma_host::minimize_reporting(lm, x, "fit");
   Model fitted = pb.model_at(x);
   check_model(fitted, "fitted parameters");
 

@@ -50,7 +50,7 @@ def fitted(binaries, tmp_path_factory):
         fit = json.load(f)
     with open(out / "params.json") as f:
         params = json.load(f)
-    return {"dir": out, "fit": fit, "params": params, "stdout": r.stdout, "fit_sine": fit_sine}
+    return {"dir": out, "fit": fit, "params": params, "stdout": r.stdout, "stderr": r.stderr, "fit_sine": fit_sine}
 
 
 def test_recovers_the_changed_parameters(fitted):
@@ -108,3 +108,16 @@ def test_fit_writes_the_paper_like_plots(fitted):
     for name in ("fit_fraction.png", "fit_displacement.png", "training_time.png", "validation_time.png"):
         f = fitted["dir"] / name
         assert f.exists() and f.stat().st_size > 10000, name
+
+
+def test_fit_reports_its_progress(fitted):
+    """sma_fit prints `progress: i/n` per LM iteration (sma_host/lm_progress.hpp), `sma fit`
+    renders them: in a log (not a terminal) plain lines with the count, the stage and the time."""
+    lines = fitted["stderr"].splitlines()
+    assert not [s for s in lines if s.startswith("progress:")]  # rendered, not passed through
+    bars = [s for s in lines if s.startswith("sma fit ") and "residual evaluations" in s]
+    stage1 = [s for s in bars if "stage 1" in s]
+    main = [s for s in bars if "stage 1" not in s]
+    assert stage1 and main and lines.index(stage1[-1]) < lines.index(main[0])
+    done, total = map(float, main[-1].split()[2].split("/"))
+    assert 0 < done <= total and "elapsed" in main[-1]

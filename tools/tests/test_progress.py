@@ -1,5 +1,6 @@
 """sma.progress: a bar with the time left on a terminal, plain lines in a log."""
 import io
+import re
 
 from sma import progress
 
@@ -49,3 +50,31 @@ def test_relay_renders_helper_progress_lines_and_passes_the_rest():
     assert p is not None and p.done == 4 and p.total == 4
     assert "reading log" in text and "warning: x" in text and "progress:" not in text
     assert "1/4" in text and "candidate a" in text
+
+
+def test_relay_starts_a_bar_per_phase_of_the_helper():
+    out = io.StringIO()
+    lines = ["progress: 10/60 fit stage 1\n", "progress: 60/60 fit stage 1\n",
+             "progress: 3/45 fit\n", "progress: 45/45 fit\n"]
+    p = progress.relay("sma fit", lines, stream=out, tty=False)
+    text = out.getvalue().splitlines()
+    assert p.total == 45 and p.done == 45
+    assert any("60/60" in t and "stage 1" in t for t in text)  # stage 1 ended before the fit began
+    assert text[-1].startswith("sma fit 45/45 100%")
+
+
+def test_discrepancy_reports_its_candidates_per_round(binaries, tmp_path):
+    """sma_discrepancy prints `progress: i/n` per candidate fitted (sma_host/progress.hpp, one
+    bar per round); `sma discrepancy` renders them and passes its other lines through."""
+    from conftest import run_sma
+
+    log = tmp_path / "lh.csv"
+    run_sma("sim", "--volt", "steps:1.7@0,1.3@30,0@60,1.5@90", "--duration", "120", "--dt", "0.1",
+            "--noise", "0.002", "--seed", "4", "--effect", "latent_heat.L_J=1.5", "--out", log)
+    r = run_sma("discrepancy", log, "--out", tmp_path / "d", "--no-plots")
+    lines = r.stderr.splitlines()
+    assert not [s for s in lines if s.startswith("progress:")]
+    bars = [s for s in lines if s.startswith("sma discrepancy ") and "round 1" in s]
+    assert bars and re.search(r"^discrepancy: \d+ samples", r.stderr, re.M)  # its own lines pass through
+    done, total = map(float, bars[-1].split()[2].split("/"))
+    assert done == total >= 1  # every candidate of round 1 fitted

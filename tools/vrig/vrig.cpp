@@ -28,6 +28,7 @@
 #include "rig_board.h"
 #include "sma/board.hpp"
 #include "sma_host/plant.hpp"
+#include "sma_host/progress.hpp"
 #include "sma_tools/params_json.hpp"
 
 extern "C" {
@@ -611,7 +612,9 @@ int run_avr(Rig& rig) {
   memset(&sa, 0, sizeof sa);
   sa.sa_handler = on_sigint;
   sigaction(SIGINT, &sa, nullptr);
+  sma_host::ProgressLine progress("vrig: simulated s", rig.opt.quiet && !rig.opt.pty ? rig.opt.duration : 0.0);
   while (avr->cycle < end && !g_stop) {
+    progress(static_cast<double>(avr->cycle) / kFreq);
     state = avr_run(avr);
     if (state == cpu_Done || state == cpu_Crashed) break;
   }
@@ -688,8 +691,10 @@ int run_native(Rig& rig) {
   // ADC counts of the sensor's valid range (main.cpp's kAdcLo/kAdcHi).
   const uint16_t adc_lo = static_cast<uint16_t>(RIG_SENSOR_V_MIN / RIG_ADC_VREF * RIG_ADC_COUNTS + 0.5);
   const uint16_t adc_hi = static_cast<uint16_t>(RIG_SENSOR_V_MAX / RIG_ADC_VREF * RIG_ADC_COUNTS + 0.5);
+  sma_host::ProgressLine progress("vrig --native: simulated s", rig.opt.quiet ? rig.opt.duration : 0.0);
   for (long k = 0; k < n_ticks; ++k) {
     const double t = k * dt;
+    progress(t);
     g_native_t = t;
     // Console input due by now: every line handled at once (the firmware defers a line by at
     // most one tick when it completes less than 3 ms before the next).

@@ -502,7 +502,6 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
       for (const FittedEffect& e : current.effects) have = have || e.spec == &spec;
       if (!have) todo.push_back(&spec);
     }
-    for (const EffectSpec* spec : todo) progress(spec->name);
     // The candidates are independent fits: o.threads of them at a time.
     std::vector<CandidateScore> found(todo.size());
     in_parallel(todo.size(), o.threads, [&](size_t c) {
@@ -536,6 +535,7 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
         }
       }
       found[c] = {spec.name, best.rms_test, best};
+      progress(spec.name);  // a candidate done (on one of o.threads threads)
     });
     scores = found;
     std::sort(scores.begin(), scores.end(),

@@ -6,14 +6,18 @@
 
 On a terminal (isatty) one line is redrawn in place: `fit [#####.....] 120/400 30% 0:12 left`;
 otherwise a plain line is written at most every `every` seconds and at the end, so CI logs stay
-short. The C++ helpers report with lines `progress: <i>/<n> [text]` on stderr; `relay()` turns
-such a stream into this display and passes every other line through.
+short. The C++ helpers report with lines `progress: <i>/<n> [text]` on stderr
+(host/include/sma_host/progress.hpp; they print them when SMA_PROGRESS=1, which run_helper sets);
+`relay()` turns such a stream into this display, one bar per phase (a new bar when the count
+goes back or the total changes: the fit's stage 1 then its main run, the discrepancy's rounds),
+and passes every other line through.
 """
+import os
 import re
 import sys
 import time
 
-PROGRESS_LINE = re.compile(r"^progress:\s*(\d+(?:\.\d+)?)\s*/\s*(\d+(?:\.\d+)?)\s*(.*)$")
+PROGRESS_LINE = re.compile(r"^(?:\x1b\[K)?progress:\s*(\d+(?:\.\d+)?)\s*/\s*(\d+(?:\.\d+)?)\s*(.*)$")
 
 
 def _clock(s):
@@ -114,9 +118,13 @@ def relay(label, lines, stream=None, tty=None):
     for raw in lines:
         m = PROGRESS_LINE.match(raw.strip())
         if m:
+            done, total = float(m.group(1)), float(m.group(2))
+            if p is not None and (done < p.done or total != p.total):
+                p.finish()  # the helper's next phase: its own bar and estimate
+                p = None
             if p is None:
                 p = Progress(label, stream=out, tty=tty)
-            p.update(float(m.group(1)), text=m.group(3) or None, total=float(m.group(2)))
+            p.update(done, text=m.group(3) or None, total=total)
         elif p is not None:
             p.message(raw)
         else:
@@ -131,6 +139,7 @@ def run_helper(cmd, label):
     """Runs a C++ helper, its stdout through, its stderr through relay(); returns the exit code."""
     import subprocess
 
-    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, bufsize=1)
+    env = dict(os.environ, SMA_PROGRESS="1")
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, bufsize=1, env=env)
     relay(label, proc.stderr)
     return proc.wait()
