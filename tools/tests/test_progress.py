@@ -2,6 +2,8 @@
 import io
 import re
 
+import pytest
+
 from sma import progress
 
 
@@ -78,3 +80,32 @@ def test_discrepancy_reports_its_candidates_per_round(binaries, tmp_path):
     assert bars and re.search(r"^discrepancy: \d+ samples", r.stderr, re.M)  # its own lines pass through
     done, total = map(float, bars[-1].split()[2].split("/"))
     assert done == total >= 1  # every candidate of round 1 fitted
+
+
+def test_vrig_reports_simulated_seconds_only_when_asked(tmp_path):
+    """vrig --quiet --duration S prints `progress: t/S` (simulated seconds) with SMA_PROGRESS=1,
+    and nothing in a pipe without it (scripts that read its stderr see what they saw before)."""
+    import os
+    import subprocess
+
+    from sma import build
+
+    elf = os.path.join(build.build_dir(), "firmware", "sma_firmware.elf")
+    try:
+        vrig = build.tool("vrig")
+    except build.BuildError as e:
+        pytest.skip("no virtual rig: %s" % e)
+    if not os.path.exists(elf):
+        pytest.skip("no firmware ELF")
+    script = tmp_path / "none.txt"
+    script.write_text("")
+    cmd = [vrig, elf, "--quiet", "--duration", "2", "--script", str(script)]
+    env = dict(os.environ, SMA_PROGRESS="1")
+    on = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
+    assert on.returncode == 0, on.stderr
+    got = [m for m in (progress.PROGRESS_LINE.match(s) for s in on.stderr.splitlines()) if m]
+    assert got and float(got[-1].group(1)) == float(got[-1].group(2)) == 2.0
+    assert all(0 <= float(m.group(1)) <= 2.0 for m in got)
+    env["SMA_PROGRESS"] = "0"
+    off = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
+    assert off.returncode == 0 and "progress:" not in off.stderr
