@@ -2,7 +2,6 @@
 lines (Teleplot `>name:value`, Arduino Serial Plotter `label:value,...`) beside or instead of the
 rig-log telemetry: the lines are ignored (not plotted, not recorded, not echoed per tick), named
 once on the page and in the terminal, and the replies and rows around them still work."""
-import io
 
 from sma import console, dashboard
 
