@@ -5,8 +5,6 @@ validated the user's log strictly; the model's temperature comes from them, neve
 """
 import os
 
-import numpy as np
-
 from . import riglog
 
 
