@@ -84,6 +84,8 @@ double* ref_e(Model& m, int) { return &m.p.e; }
 double* ref_TMSs(Model& m, int) { return &m.p.T_MSs; }
 double* ref_TMSf(Model& m, int) { return &m.p.T_MSf; }
 double* ref_g(Model& m, int) { return &m.p.g; }
+double* ref_Ts(Model& m, int) { return &m.p.T_s; }
+double* ref_Tf(Model& m, int) { return &m.p.T_f; }
 double* ref_R(Model& m, int) { return &m.p.R; }
 double* ref_Tamb(Model& m, int) { return &m.p.T_amb; }
 double* ref_off(Model& m, int) { return &m.fx.sensor_offset_mm; }
@@ -104,7 +106,8 @@ std::vector<ParamSpec> all_specs(const Model& m) {
       {"g", 0.05, true, ref_g, 0},         {"offset_mm", 0.01 * g, false, ref_off, 0},
       {"T_amb", 1.0, false, ref_Tamb, 0},  {"gain", 0.05, true, ref_gain, 0},
       {"R", 0.05, true, ref_R, 0},         {"alpha_per_K", 1e-6, false, ref_alpha, 0},
-      {"L_J", 0.5, false, ref_LJ, 0},      {"beta_per_K", 1e-3, false, ref_beta, 0}};
+      {"L_J", 0.5, false, ref_LJ, 0},      {"beta_per_K", 1e-3, false, ref_beta, 0},
+      {"T_s", 1.0, false, ref_Ts, 0},      {"T_f", 1.0, false, ref_Tf, 0}};
   for (int k = 0; k < m.p.n_loops; ++k) {
     s.push_back({"j" + std::to_string(k + 1), 0.02, false, ref_j, k});
     s.push_back({"T_ii" + std::to_string(k + 1), 1.0, false, ref_Tii, k});
@@ -144,10 +147,42 @@ struct Problem {
       const double xi = x[static_cast<Eigen::Index>(i)];
       *s.ref(m, s.index) = s.log ? x0[i] * std::exp(xi * s.scale) : x0[i] + xi * s.scale;
     }
+    tie_to_bands(m);
     // T_MS is not used by the hysteresis (the major cooling branch starts at T_MSi, eq 10), but
     // Params::check wants T_MS > T_MF: it follows T_MF instead of bounding it.
     if (!(m.p.T_MS > m.p.T_MF)) m.p.T_MS = m.p.T_MF + 1.0;
     return m;
+  }
+  bool fitted(double* (*ref)(Model&, int)) const {
+    for (const ParamSpec& s : specs)
+      if (s.ref == ref) return true;
+    return false;
+  }
+  // The minor-loop band moves with the wire (issue 11): what is not fitted itself follows the
+  // band it lies in, by the affine map of the start's band onto the present one. T_s, T_f and
+  // the loops' T_i, T_ii lie in the heating band T_AS..T_AF (eqs 2, 7); T_MSs, T_MSf (eq 9) in
+  // the cooling band T_MF..q + e (eq 10 at a full transformation). A wire whose temperatures
+  // shift then keeps its loops where they were relative to its transformation instead of at
+  // the start's (the paper's) temperatures.
+  void tie_to_bands(Model& m) const {
+    const sma::Params& s = start.p;
+    const double wh0 = s.T_AF - s.T_AS, wh = m.p.T_AF - m.p.T_AS;
+    if (wh0 > 0 && wh > 0 && (m.p.T_AS != s.T_AS || m.p.T_AF != s.T_AF)) {
+      auto heat = [&](double x) { return m.p.T_AS + (x - s.T_AS) * wh / wh0; };
+      if (!fitted(ref_Ts)) m.p.T_s = heat(s.T_s);
+      if (!fitted(ref_Tf)) m.p.T_f = heat(s.T_f);
+      for (int k = 0; k < m.p.n_loops; ++k) {
+        m.p.loops[k].T_i = heat(s.loops[k].T_i);
+        if (!fitted(ref_Tii)) m.p.loops[k].T_ii = heat(s.loops[k].T_ii);
+      }
+    }
+    const double c0 = s.q + s.e, c = m.p.q + m.p.e;
+    const double wc0 = c0 - s.T_MF, wc = c - m.p.T_MF;
+    if (wc0 > 0 && wc > 0 && (c != c0 || m.p.T_MF != s.T_MF)) {
+      auto cool = [&](double x) { return m.p.T_MF + (x - s.T_MF) * wc / wc0; };
+      if (!fitted(ref_TMSs)) m.p.T_MSs = cool(s.T_MSs);
+      if (!fitted(ref_TMSf)) m.p.T_MSf = cool(s.T_MSf);
+    }
   }
   // The model of run r: run 0's, with run r's own sensor offset.
   Model model_for_run(const Model& m0, const Eigen::VectorXd& x, size_t r) const {
@@ -657,8 +692,12 @@ int run(int argc, char** argv) {
     std::vector<double> keep_x0;
     for (size_t i = 0; i < pb.specs.size(); ++i) {
       if (J.col(static_cast<Eigen::Index>(i)).norm() <= 1e-9 * colmax) {
-        notes.push_back(pb.specs[i].name + ": kept at its start value " + fmt(pb.x0[i], 6) +
-                        ": this log does not excite it (no sensitivity after stage 1)");
+        const ParamSpec& sp = pb.specs[i];
+        const bool tied = sp.ref == ref_Tii || sp.ref == ref_TMSs || sp.ref == ref_TMSf || sp.ref == ref_Ts ||
+                          sp.ref == ref_Tf;
+        notes.push_back(sp.name + ": not fitted: this log does not excite it (no sensitivity after stage 1); " +
+                        (tied ? std::string("it follows its transformation band from ") + fmt(pb.x0[i], 6)
+                              : "kept at its start value " + fmt(pb.x0[i], 6)));
       } else {
         keep.push_back(pb.specs[i]);
         keep_x0.push_back(pb.x0[i]);
@@ -744,6 +783,11 @@ int run(int argc, char** argv) {
     notes.push_back("T_MS set to T_MF + 1 = " + fixed(fitted.p.T_MS, 2) +
                     " to stay > T_MF (T_MS itself is not used by the model)");
   check_model(fitted, "fitted parameters");
+  if (!pb.fitted(ref_Ts) || !pb.fitted(ref_Tf))
+    notes.push_back("minor-loop band T_s..T_f = " + fixed(fitted.p.T_s, 2) + ".." + fixed(fitted.p.T_f, 2) +
+                    " degC (start " + fixed(start.p.T_s, 2) + ".." + fixed(start.p.T_f, 2) +
+                    "), T_MSs, T_MSf = " + fixed(fitted.p.T_MSs, 2) + ", " + fixed(fitted.p.T_MSf, 2) +
+                    " degC: tied to the fitted transformation bands where not fitted themselves");
   for (const auto& w : sma_host::plausibility_warnings(fitted.p, fitted.fx)) {
     std::cerr << "sma_fit: warning: " << w << "\n";
     notes.push_back("warning: " + w);
