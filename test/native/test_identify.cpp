@@ -118,3 +118,68 @@ TEST(Identify, ResidualThatFollowsTheTemperatureIsNamed) {
   EXPECT_GT(a.states[0].r2_linear, 0.99);
   EXPECT_NEAR(a.states[0].slope, -0.005, 1e-6);
 }
+
+// The shared LM residual (FitResidual): a wire whose heating band moves by -3 K and whose
+// cooling band moves by +1.5 K carries its minor-loop band along (T_s, T_f, the loops' T_i and
+// T_ii by -3 K, T_MSs and T_MSf by +1.5 K) unless those are fitted themselves.
+TEST(Identify, FitResidualTiesTheMinorLoopBandToTheFittedBands) {
+  const sma::Params paper;
+  FitResidual pb;
+  pb.start = Model{paper, sma::Effects()};
+  for (const ParamSpec& s : fittable_params(pb.start))
+    if (s.name == "T_AS" || s.name == "T_AF" || s.name == "T_MF" || s.name == "e") {
+      pb.specs.push_back(s);
+      pb.x0.push_back(*s.ref(pb.start, s.index));
+    }
+  Eigen::VectorXd x(4);
+  x << -3.0, -3.0, 1.5, 1.5;  // scale 1 K: T_AS, T_AF -3 K; T_MF, e (so q + e) +1.5 K
+  const Model m = pb.model_at(x);
+  EXPECT_NEAR(m.p.T_AS, paper.T_AS - 3.0, 1e-12);
+  EXPECT_NEAR(m.p.T_s, paper.T_s - 3.0, 1e-9);
+  EXPECT_NEAR(m.p.T_f, paper.T_f - 3.0, 1e-9);
+  for (int k = 0; k < paper.n_loops; ++k) {
+    EXPECT_NEAR(m.p.loops[k].T_i, paper.loops[k].T_i - 3.0, 1e-9);
+    EXPECT_NEAR(m.p.loops[k].T_ii, paper.loops[k].T_ii - 3.0, 1e-9);
+    EXPECT_EQ(m.p.loops[k].j, paper.loops[k].j);
+  }
+  EXPECT_NEAR(m.p.T_MSs, paper.T_MSs + 1.5, 1e-9);
+  EXPECT_NEAR(m.p.T_MSf, paper.T_MSf + 1.5, 1e-9);
+  EXPECT_EQ(m.p.check(), nullptr);
+  // A fitted T_s stays where the optimiser puts it.
+  for (const ParamSpec& s : fittable_params(pb.start))
+    if (s.name == "T_s") {
+      pb.specs.push_back(s);
+      pb.x0.push_back(paper.T_s);
+    }
+  Eigen::VectorXd x5(5);
+  x5 << -3.0, -3.0, 1.5, 1.5, 0.0;
+  EXPECT_EQ(pb.model_at(x5).p.T_s, paper.T_s);
+}
+
+// The residual is zero at the wire that made the log, over several runs each with its own zero,
+// and the functor's Jacobian column of h is the residual's change for a 1 % step of h.
+TEST(Identify, FitResidualIsZeroAtTheTrueWireOverSeveralRuns) {
+  const sma::Params p;
+  RigLog a = simulate_log(p, sma::Effects(), default_steps(), 0.0, 1);
+  RigLog b = a;
+  for (double& d : b.d) d += 0.3;
+  FitResidual pb;
+  pb.logs = {&a, &b};
+  pb.start = Model{p, sma::Effects()};
+  pb.stride = 5;
+  pb.run_offset = {0.3};
+  for (const ParamSpec& s : fittable_params(pb.start))
+    if (s.name == "h" || s.name == "g") {
+      pb.specs.push_back(s);
+      pb.x0.push_back(*s.ref(pb.start, s.index));
+    }
+  Eigen::VectorXd f;
+  ASSERT_TRUE(pb.residual_at(Eigen::VectorXd::Zero(2), f));
+  EXPECT_EQ(static_cast<size_t>(f.size()), pb.rows());
+  EXPECT_LT(f.cwiseAbs().maxCoeff(), 1e-6);
+  FitFunctor fun{&pb};
+  Eigen::MatrixXd J;
+  fun.df(Eigen::VectorXd::Zero(2), J);
+  EXPECT_GT(J.col(0).norm(), 0.0);  // a log that heats and cools excites h and g
+  EXPECT_GT(J.col(1).norm(), 0.0);
+}

@@ -44,7 +44,9 @@ static const char* kUsage =
     "                       h,T_AS,T_AF,T_MF,q,e,T_MSs,T_MSf,g,offset_mm,j1..jn,T_ii1..T_iin\n"
     "                       where n = number of loops); also available: T_amb, gain, R,\n"
     "                       alpha_per_K (thermal_expansion), L_J (latent_heat),\n"
-    "                       beta_per_K (convection_nonlinear)\n"
+    "                       beta_per_K (convection_nonlinear), delay_s, tau_s, offset_K, k_R,\n"
+    "                       T_s, T_f (else tied to the fitted bands, as T_MSs, T_MSf, the\n"
+    "                       loops' T_i, T_ii when not fitted)\n"
     "  --fix NAMES          remove these from the default set\n"
     "  several LOGs         one wire fitted to all of them, with a sensor zero per run (they\n"
     "                       must share one sample rate and column set, else refused)\n"
@@ -67,169 +69,16 @@ static const char* kUsage =
 
 namespace {
 
-// ---- the fitted parameters ---------------------------------------------------------------------
-struct ParamSpec {
-  std::string name;
-  double scale;   // normalisation: one unit of the optimiser's x (and the Jacobian step / 100)
-  bool log;       // positive quantity fitted as log (h, g, R, gain)
-  double* (*ref)(Model&, int);
-  int index;      // loop index for j / T_ii
-};
-
-double* ref_h(Model& m, int) { return &m.p.h; }
-double* ref_TAS(Model& m, int) { return &m.p.T_AS; }
-double* ref_TAF(Model& m, int) { return &m.p.T_AF; }
-double* ref_TMF(Model& m, int) { return &m.p.T_MF; }
-double* ref_q(Model& m, int) { return &m.p.q; }
-double* ref_e(Model& m, int) { return &m.p.e; }
-double* ref_TMSs(Model& m, int) { return &m.p.T_MSs; }
-double* ref_TMSf(Model& m, int) { return &m.p.T_MSf; }
-double* ref_g(Model& m, int) { return &m.p.g; }
-double* ref_R(Model& m, int) { return &m.p.R; }
-double* ref_Tamb(Model& m, int) { return &m.p.T_amb; }
-double* ref_off(Model& m, int) { return &m.fx.sensor_offset_mm; }
-double* ref_gain(Model& m, int) { return &m.fx.sensor_gain; }
-double* ref_alpha(Model& m, int) { return &m.fx.thermal_expansion_per_K; }
-double* ref_LJ(Model& m, int) { return &m.fx.latent_heat_J; }
-double* ref_beta(Model& m, int) { return &m.fx.convection_beta_per_K; }
-double* ref_j(Model& m, int k) { return &m.p.loops[k].j; }
-double* ref_Tii(Model& m, int k) { return &m.p.loops[k].T_ii; }
-
-std::vector<ParamSpec> all_specs(const Model& m) {
-  const double g = m.p.g;
-  std::vector<ParamSpec> s = {
-      {"h", 0.1, true, ref_h, 0},          {"T_AS", 1.0, false, ref_TAS, 0},
-      {"T_AF", 1.0, false, ref_TAF, 0},    {"T_MF", 1.0, false, ref_TMF, 0},
-      {"q", 1.0, false, ref_q, 0},         {"e", 1.0, false, ref_e, 0},
-      {"T_MSs", 1.0, false, ref_TMSs, 0},  {"T_MSf", 1.0, false, ref_TMSf, 0},
-      {"g", 0.05, true, ref_g, 0},         {"offset_mm", 0.01 * g, false, ref_off, 0},
-      {"T_amb", 1.0, false, ref_Tamb, 0},  {"gain", 0.05, true, ref_gain, 0},
-      {"R", 0.05, true, ref_R, 0},         {"alpha_per_K", 1e-6, false, ref_alpha, 0},
-      {"L_J", 0.5, false, ref_LJ, 0},      {"beta_per_K", 1e-3, false, ref_beta, 0}};
-  for (int k = 0; k < m.p.n_loops; ++k) {
-    s.push_back({"j" + std::to_string(k + 1), 0.02, false, ref_j, k});
-    s.push_back({"T_ii" + std::to_string(k + 1), 1.0, false, ref_Tii, k});
-  }
-  return s;
-}
-
-std::vector<std::string> default_fit(const Model& m) {
-  std::vector<std::string> n = {"h", "T_AS", "T_AF", "T_MF", "q", "e", "T_MSs", "T_MSf", "g", "offset_mm"};
-  for (int k = 0; k < m.p.n_loops; ++k) {
-    n.push_back("j" + std::to_string(k + 1));
-    n.push_back("T_ii" + std::to_string(k + 1));
-  }
-  return n;
-}
-
-// ---- the residual ------------------------------------------------------------------------------
-// Over one or several logs of one wire: the shared parameters, and a sensor offset per run after
-// the first (a potentiometer's zero moves between runs; specs with ref == nullptr, index = run).
-struct Problem {
-  std::vector<const RigLog*> logs;
-  Model start;
-  std::vector<ParamSpec> specs;  // fitted, in order
-  std::vector<double> x0;        // start values (physical)
-  size_t stride = 1;
-  double eps0 = -1.0;            // < 0: the engine's initial-state rule
-  double penalty = 1.0;          // residual of a non-physical set, mm
-  std::vector<double> run_offset;  // start sensor offsets of runs 1.. (run 0: the model's)
-  mutable long runs = 0;
-
-  // x (normalised) -> model (of run 0)
-  Model model_at(const Eigen::VectorXd& x) const {
-    Model m = start;
-    for (size_t i = 0; i < specs.size(); ++i) {
-      const ParamSpec& s = specs[i];
-      if (!s.ref) continue;
-      const double xi = x[static_cast<Eigen::Index>(i)];
-      *s.ref(m, s.index) = s.log ? x0[i] * std::exp(xi * s.scale) : x0[i] + xi * s.scale;
-    }
-    // T_MS is not used by the hysteresis (the major cooling branch starts at T_MSi, eq 10), but
-    // Params::check wants T_MS > T_MF: it follows T_MF instead of bounding it.
-    if (!(m.p.T_MS > m.p.T_MF)) m.p.T_MS = m.p.T_MF + 1.0;
-    return m;
-  }
-  // The model of run r: run 0's, with run r's own sensor offset.
-  Model model_for_run(const Model& m0, const Eigen::VectorXd& x, size_t r) const {
-    Model m = m0;
-    if (r == 0) return m;
-    m.fx.sensor_offset_mm = run_offset[r - 1];
-    for (size_t i = 0; i < specs.size(); ++i)
-      if (!specs[i].ref && static_cast<size_t>(specs[i].index) == r)
-        m.fx.sensor_offset_mm = x0[i] + x[static_cast<Eigen::Index>(i)] * specs[i].scale;
-    return m;
-  }
-  // d(physical)/d(x) at x, for the covariance in physical units.
-  double dphys(const Eigen::VectorXd& x, size_t i) const {
-    const ParamSpec& s = specs[i];
-    const double xi = x[static_cast<Eigen::Index>(i)];
-    return s.log ? x0[i] * std::exp(xi * s.scale) * s.scale : s.scale;
-  }
-  size_t rows_of(size_t r) const { return (logs[r]->size() + stride - 1) / stride; }
-  size_t rows() const {
-    size_t n = 0;
-    for (size_t r = 0; r < logs.size(); ++r) n += rows_of(r);
-    return n;
-  }
-
-  // Residuals; false if the set is not physical (then f = penalty everywhere).
-  bool residual(const Model& m, Eigen::VectorXd& f, const Eigen::VectorXd* x = nullptr) const {
-    const size_t n = rows();
-    f.resize(static_cast<Eigen::Index>(n));
-    if (m.p.check() || m.fx.check()) {
-      f.setConstant(penalty);
-      return false;
-    }
-    ReplayOptions o;
-    o.stride = stride;
-    o.eps0 = eps0;
-    o.want_states = false;
-    Trace tr;
-    Eigen::Index row = 0;
-    const Eigen::VectorXd none = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(specs.size()));
-    for (size_t r = 0; r < logs.size(); ++r) {
-      tr = sma_host::replay(model_for_run(m, x ? *x : none, r), *logs[r], o);
-      ++runs;
-      for (size_t k = 0; k < rows_of(r); ++k) f[row++] = tr.d[k] - logs[r]->d[k * stride];
-    }
-    return true;
-  }
-  bool residual_at(const Eigen::VectorXd& x, Eigen::VectorXd& f) const { return residual(model_at(x), f, &x); }
-};
-
-struct LmFunctor {
-  typedef double Scalar;
-  enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
-  typedef Eigen::VectorXd InputType;
-  typedef Eigen::VectorXd ValueType;
-  typedef Eigen::MatrixXd JacobianType;
-  const Problem* pb;
-  int inputs() const { return static_cast<int>(pb->specs.size()); }
-  int values() const { return static_cast<int>(pb->rows()); }
-  int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
-    pb->residual_at(x, f);
-    return 0;
-  }
-  // Forward differences, step 0.01 normalised units (0.01 K for temperatures, 0.1 % for h, g).
-  int df(const Eigen::VectorXd& x, Eigen::MatrixXd& J) const {
-    Eigen::VectorXd f0, f1;
-    pb->residual_at(x, f0);
-    J.resize(f0.size(), x.size());
-    for (Eigen::Index i = 0; i < x.size(); ++i) {
-      Eigen::VectorXd xs = x;
-      double h = 0.01;
-      xs[i] += h;
-      if (!pb->residual_at(xs, f1)) {  // at a bound: step the other way
-        xs[i] = x[i] - h;
-        pb->residual_at(xs, f1);
-        h = -h;
-      }
-      J.col(i) = (f1 - f0) / h;
-    }
-    return 0;
-  }
-};
+// The fitted parameters and the LM residual are the engine's (sma_host/identify.hpp): the
+// residual object shared with the discrepancy workflow.
+using sma_host::FitFunctor;
+using sma_host::FitResidual;
+using sma_host::ParamSpec;
+namespace ref = sma_host::ref;
+using Problem = sma_host::FitResidual;
+using LmFunctor = sma_host::FitFunctor;
+std::vector<ParamSpec> all_specs(const Model& m) { return sma_host::fittable_params(m); }
+std::vector<std::string> default_fit(const Model& m) { return sma_host::default_fit_names(m); }
 
 // ---- statistics --------------------------------------------------------------------------------
 struct Stats {
@@ -491,7 +340,7 @@ int run(int argc, char** argv) {
     const char* cooling[] = {"T_MF", "q", "e", "T_MSs", "T_MSf"};
     std::vector<std::string> asked;
     for (const ParamSpec& sp : pb.specs) {
-      bool c = sp.ref == ref_j || sp.ref == ref_Tii;
+      bool c = sp.ref == ref::j || sp.ref == ref::Tii;
       for (const char* n : cooling) c = c || sp.name == n;
       if (c) asked.push_back(sp.name);
     }
@@ -630,12 +479,12 @@ int run(int argc, char** argv) {
       std::vector<ParamSpec> keep;
       std::vector<double> keep_x0;
       for (size_t i = 0; i < pb.specs.size(); ++i)
-        if (pb.specs[i].ref != ref_j && pb.specs[i].ref != ref_Tii) {
+        if (pb.specs[i].ref != ref::j && pb.specs[i].ref != ref::Tii) {
           keep.push_back(pb.specs[i]);
           keep_x0.push_back(pb.specs[i].ref ? *pb.specs[i].ref(m, pb.specs[i].index) : pb.x0[i]);
         }
       for (const ParamSpec& sp : all_specs(m))
-        if (sp.ref == ref_j || sp.ref == ref_Tii) {
+        if (sp.ref == ref::j || sp.ref == ref::Tii) {
           keep.push_back(sp);
           keep_x0.push_back(*sp.ref(m, sp.index));
         }
@@ -658,8 +507,12 @@ int run(int argc, char** argv) {
     std::vector<double> keep_x0;
     for (size_t i = 0; i < pb.specs.size(); ++i) {
       if (J.col(static_cast<Eigen::Index>(i)).norm() <= 1e-9 * colmax) {
-        notes.push_back(pb.specs[i].name + ": kept at its start value " + fmt(pb.x0[i], 6) +
-                        ": this log does not excite it (no sensitivity after stage 1)");
+        const ParamSpec& sp = pb.specs[i];
+        const bool tied = sp.ref == ref::Tii || sp.ref == ref::TMSs || sp.ref == ref::TMSf || sp.ref == ref::Ts ||
+                          sp.ref == ref::Tf;
+        notes.push_back(sp.name + ": not fitted: this log does not excite it (no sensitivity after stage 1); " +
+                        (tied ? std::string("it follows its transformation band from ") + fmt(pb.x0[i], 6)
+                              : "kept at its start value " + fmt(pb.x0[i], 6)));
       } else {
         keep.push_back(pb.specs[i]);
         keep_x0.push_back(pb.x0[i]);
@@ -745,6 +598,11 @@ int run(int argc, char** argv) {
     notes.push_back("T_MS set to T_MF + 1 = " + fixed(fitted.p.T_MS, 2) +
                     " to stay > T_MF (T_MS itself is not used by the model)");
   check_model(fitted, "fitted parameters");
+  if (!pb.fitted(ref::Ts) || !pb.fitted(ref::Tf))
+    notes.push_back("minor-loop band T_s..T_f = " + fixed(fitted.p.T_s, 2) + ".." + fixed(fitted.p.T_f, 2) +
+                    " degC (start " + fixed(start.p.T_s, 2) + ".." + fixed(start.p.T_f, 2) +
+                    "), T_MSs, T_MSf = " + fixed(fitted.p.T_MSs, 2) + ", " + fixed(fitted.p.T_MSf, 2) +
+                    " degC: tied to the fitted transformation bands where not fitted themselves");
   for (const auto& w : sma_host::plausibility_warnings(fitted.p, fitted.fx)) {
     std::cerr << "sma_fit: warning: " << w << "\n";
     notes.push_back("warning: " + w);

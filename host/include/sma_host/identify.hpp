@@ -4,7 +4,7 @@
 // per-run sensor offset, one set of error statistics (whole run, heating and cooling halves).
 //
 //   log -> replay (the library's sma::Plant on the log's own v_V; no second copy of the model)
-//       -> residual over named parameters -> Levenberg-Marquardt (Eigen)
+//       -> residual over named parameters (FitResidual, FitFunctor) -> Levenberg-Marquardt (Eigen)
 //       -> uncertainty(J, r): s^2 (J^T J)^+ by SVD, 95 % intervals, correlations.
 #ifndef SMA_HOST_IDENTIFY_HPP
 #define SMA_HOST_IDENTIFY_HPP
@@ -298,6 +298,237 @@ inline Uncertainty uncertainty(const Eigen::MatrixXd& J, const Eigen::VectorXd& 
   }
   return u;
 }
+
+// ---- the LM residual over named parameters -----------------------------------------------------
+// One residual object for every fit of the engine (`tools/sma fit`; the discrepancy workflow's
+// fits of effects and base parameters can use it the same way): named parameters of a Model,
+// normalised for the optimiser, the model replayed along one or several logs of one wire with a
+// sensor zero per run, the minor-loop band tied to the fitted bands, a penalty for a
+// non-physical set, and the forward-difference Jacobian Eigen's Levenberg-Marquardt wants.
+
+// Where a fitted parameter lives in a Model (index: the loop of j / T_ii).
+namespace ref {
+inline double* h(Model& m, int) { return &m.p.h; }
+inline double* TAS(Model& m, int) { return &m.p.T_AS; }
+inline double* TAF(Model& m, int) { return &m.p.T_AF; }
+inline double* TMF(Model& m, int) { return &m.p.T_MF; }
+inline double* q(Model& m, int) { return &m.p.q; }
+inline double* e(Model& m, int) { return &m.p.e; }
+inline double* TMSs(Model& m, int) { return &m.p.T_MSs; }
+inline double* TMSf(Model& m, int) { return &m.p.T_MSf; }
+inline double* g(Model& m, int) { return &m.p.g; }
+inline double* Ts(Model& m, int) { return &m.p.T_s; }
+inline double* Tf(Model& m, int) { return &m.p.T_f; }
+inline double* R(Model& m, int) { return &m.p.R; }
+inline double* Tamb(Model& m, int) { return &m.p.T_amb; }
+inline double* j(Model& m, int k) { return &m.p.loops[k].j; }
+inline double* Tii(Model& m, int k) { return &m.p.loops[k].T_ii; }
+// The effects of the vocabulary (effects.hpp, interfaces.md names in fittable_params).
+inline double* off(Model& m, int) { return &m.fx.sensor_offset_mm; }
+inline double* gain(Model& m, int) { return &m.fx.sensor_gain; }
+inline double* alpha(Model& m, int) { return &m.fx.thermal_expansion_per_K; }
+inline double* LJ(Model& m, int) { return &m.fx.latent_heat_J; }
+inline double* beta(Model& m, int) { return &m.fx.convection_beta_per_K; }
+inline double* delay(Model& m, int) { return &m.fx.sensor_delay_s; }
+inline double* lag(Model& m, int) { return &m.fx.sensor_lag_s; }
+inline double* offK(Model& m, int) { return &m.fx.ambient_offset_K; }
+inline double* kR(Model& m, int) { return &m.fx.resistance_k; }
+}  // namespace ref
+
+struct ParamSpec {
+  std::string name;
+  double scale;   // normalisation: one unit of the optimiser's x (and the Jacobian step / 100)
+  bool log;       // positive quantity fitted as log (h, g, R, gain)
+  double* (*ref)(Model&, int);  // nullptr: the sensor zero of run `index` (> 0) of several logs
+  int index;      // loop index for j / T_ii
+  double lo = -INFINITY, hi = INFINITY;  // physical bounds (the value is clamped to them)
+};
+
+// Every parameter a fit can name: the paper's (Table II), the rig's (T_amb, R) and the effects'.
+inline std::vector<ParamSpec> fittable_params(const Model& m) {
+  const double g = m.p.g;
+  std::vector<ParamSpec> s = {
+      {"h", 0.1, true, ref::h, 0},          {"T_AS", 1.0, false, ref::TAS, 0},
+      {"T_AF", 1.0, false, ref::TAF, 0},    {"T_MF", 1.0, false, ref::TMF, 0},
+      {"q", 1.0, false, ref::q, 0},         {"e", 1.0, false, ref::e, 0},
+      {"T_MSs", 1.0, false, ref::TMSs, 0},  {"T_MSf", 1.0, false, ref::TMSf, 0},
+      {"g", 0.05, true, ref::g, 0},         {"offset_mm", 0.01 * g, false, ref::off, 0},
+      {"T_amb", 1.0, false, ref::Tamb, 0},  {"gain", 0.05, true, ref::gain, 0},
+      {"R", 0.05, true, ref::R, 0},         {"alpha_per_K", 1e-6, false, ref::alpha, 0},
+      {"L_J", 0.5, false, ref::LJ, 0},      {"beta_per_K", 1e-3, false, ref::beta, 0},
+      {"T_s", 1.0, false, ref::Ts, 0},      {"T_f", 1.0, false, ref::Tf, 0},
+      {"delay_s", 0.1, false, ref::delay, 0, 0.0, 2.0}, {"tau_s", 0.2, false, ref::lag, 0, 0.0, 5.0},
+      {"offset_K", 2.0, false, ref::offK, 0},           {"k_R", 0.1, false, ref::kR, 0, -0.5, 1.0}};
+  for (int k = 0; k < m.p.n_loops; ++k) {
+    s.push_back({"j" + std::to_string(k + 1), 0.02, false, ref::j, k});
+    s.push_back({"T_ii" + std::to_string(k + 1), 1.0, false, ref::Tii, k});
+  }
+  return s;
+}
+
+// What `tools/sma fit` fits unless told otherwise: the paper's identified set and the sensor zero.
+inline std::vector<std::string> default_fit_names(const Model& m) {
+  std::vector<std::string> n = {"h", "T_AS", "T_AF", "T_MF", "q", "e", "T_MSs", "T_MSf", "g", "offset_mm"};
+  for (int k = 0; k < m.p.n_loops; ++k) {
+    n.push_back("j" + std::to_string(k + 1));
+    n.push_back("T_ii" + std::to_string(k + 1));
+  }
+  return n;
+}
+
+// Over one or several logs of one wire: the shared parameters, and a sensor offset per run after
+// the first (a potentiometer's zero moves between runs; specs with ref == nullptr, index = run).
+// The residual is model - measured at every stride-th row of each log, or at the rows `only`
+// (one log: e.g. the training blocks of a held-out split).
+struct FitResidual {
+  std::vector<const RigLog*> logs;
+  Model start;
+  std::vector<ParamSpec> specs;  // fitted, in order
+  std::vector<double> x0;        // start values (physical)
+  size_t stride = 1;
+  std::vector<size_t> only;      // rows of logs[0] to use instead of the stride (one log)
+  double eps0 = -1.0;            // < 0: the engine's initial-state rule
+  double penalty = 1.0;          // residual of a non-physical set, mm
+  bool tie_bands = true;         // tie_to_bands() (off: every parameter not fitted stays put)
+  std::vector<double> run_offset;  // start sensor offsets of runs 1.. (run 0: the model's)
+  mutable long runs = 0;         // model runs so far (one per log per residual)
+
+  // x (normalised) -> the physical value of parameter i
+  double value(const Eigen::VectorXd& x, size_t i) const {
+    const ParamSpec& s = specs[i];
+    const double xi = x[static_cast<Eigen::Index>(i)];
+    const double v = s.log ? x0[i] * exp(xi * s.scale) : x0[i] + xi * s.scale;
+    return std::min(s.hi, std::max(s.lo, v));
+  }
+  // x (normalised) -> model (of run 0)
+  Model model_at(const Eigen::VectorXd& x) const {
+    Model m = start;
+    for (size_t i = 0; i < specs.size(); ++i)
+      if (specs[i].ref) *specs[i].ref(m, specs[i].index) = value(x, i);
+    if (tie_bands) tie_to_bands(m);
+    // T_MS is not used by the hysteresis (the major cooling branch starts at T_MSi, eq 10), but
+    // Params::check wants T_MS > T_MF: it follows T_MF instead of bounding it.
+    if (!(m.p.T_MS > m.p.T_MF)) m.p.T_MS = m.p.T_MF + 1.0;
+    return m;
+  }
+  bool fitted(double* (*r)(Model&, int)) const {
+    for (const ParamSpec& s : specs)
+      if (s.ref == r) return true;
+    return false;
+  }
+  // The minor-loop band moves with the wire: what is not fitted itself follows the band it lies
+  // in, by the affine map of the start's band onto the present one. T_s, T_f and the loops'
+  // T_i, T_ii lie in the heating band T_AS..T_AF (eqs 2, 7); T_MSs, T_MSf (eq 9) in the cooling
+  // band T_MF..q + e (eq 10 at a full transformation). A wire whose temperatures shift then
+  // keeps its loops where they were relative to its transformation instead of at the start's
+  // (the paper's) temperatures.
+  void tie_to_bands(Model& m) const {
+    const sma::Params& s = start.p;
+    const double wh0 = s.T_AF - s.T_AS, wh = m.p.T_AF - m.p.T_AS;
+    if (wh0 > 0 && wh > 0 && (m.p.T_AS != s.T_AS || m.p.T_AF != s.T_AF)) {
+      auto heat = [&](double x) { return m.p.T_AS + (x - s.T_AS) * wh / wh0; };
+      if (!fitted(ref::Ts)) m.p.T_s = heat(s.T_s);
+      if (!fitted(ref::Tf)) m.p.T_f = heat(s.T_f);
+      for (int k = 0; k < m.p.n_loops; ++k) {
+        m.p.loops[k].T_i = heat(s.loops[k].T_i);
+        if (!fitted(ref::Tii)) m.p.loops[k].T_ii = heat(s.loops[k].T_ii);
+      }
+    }
+    const double c0 = s.q + s.e, c = m.p.q + m.p.e;
+    const double wc0 = c0 - s.T_MF, wc = c - m.p.T_MF;
+    if (wc0 > 0 && wc > 0 && (c != c0 || m.p.T_MF != s.T_MF)) {
+      auto cool = [&](double x) { return m.p.T_MF + (x - s.T_MF) * wc / wc0; };
+      if (!fitted(ref::TMSs)) m.p.T_MSs = cool(s.T_MSs);
+      if (!fitted(ref::TMSf)) m.p.T_MSf = cool(s.T_MSf);
+    }
+  }
+  // The model of run r: run 0's, with run r's own sensor offset.
+  Model model_for_run(const Model& m0, const Eigen::VectorXd& x, size_t r) const {
+    Model m = m0;
+    if (r == 0) return m;
+    m.fx.sensor_offset_mm = run_offset[r - 1];
+    for (size_t i = 0; i < specs.size(); ++i)
+      if (!specs[i].ref && static_cast<size_t>(specs[i].index) == r) m.fx.sensor_offset_mm = value(x, i);
+    return m;
+  }
+  // d(physical)/d(x) at x, for the covariance in physical units.
+  double dphys(const Eigen::VectorXd& x, size_t i) const {
+    const ParamSpec& s = specs[i];
+    const double xi = x[static_cast<Eigen::Index>(i)];
+    return s.log ? x0[i] * exp(xi * s.scale) * s.scale : s.scale;
+  }
+  size_t rows_of(size_t r) const {
+    if (r == 0 && !only.empty()) return only.size();
+    return (logs[r]->size() + stride - 1) / stride;
+  }
+  size_t rows() const {
+    size_t n = 0;
+    for (size_t r = 0; r < logs.size(); ++r) n += rows_of(r);
+    return n;
+  }
+
+  // Residuals; false if the set is not physical (then f = penalty everywhere).
+  bool residual(const Model& m, Eigen::VectorXd& f, const Eigen::VectorXd* x = nullptr) const {
+    const size_t n = rows();
+    f.resize(static_cast<Eigen::Index>(n));
+    if (m.p.check() || m.fx.check()) {
+      f.setConstant(penalty);
+      return false;
+    }
+    const Eigen::VectorXd none = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(specs.size()));
+    Eigen::Index row = 0;
+    for (size_t r = 0; r < logs.size(); ++r) {
+      const bool rows_given = r == 0 && !only.empty();
+      ReplayOptions o;
+      o.stride = rows_given ? 1 : stride;
+      o.eps0 = eps0;
+      o.want_states = false;
+      const Trace tr = sma_host::replay(model_for_run(m, x ? *x : none, r), *logs[r], o);
+      ++runs;
+      if (rows_given)
+        for (size_t k : only) f[row++] = tr.d[k] - logs[r]->d[k];
+      else
+        for (size_t k = 0; k < rows_of(r); ++k) f[row++] = tr.d[k] - logs[r]->d[k * stride];
+    }
+    return true;
+  }
+  bool residual_at(const Eigen::VectorXd& x, Eigen::VectorXd& f) const { return residual(model_at(x), f, &x); }
+};
+
+// The residual as Eigen's Levenberg-Marquardt functor (unsupported/NonLinearOptimization).
+struct FitFunctor {
+  typedef double Scalar;
+  enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
+  typedef Eigen::VectorXd InputType;
+  typedef Eigen::VectorXd ValueType;
+  typedef Eigen::MatrixXd JacobianType;
+  const FitResidual* pb;
+  int inputs() const { return static_cast<int>(pb->specs.size()); }
+  int values() const { return static_cast<int>(pb->rows()); }
+  int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
+    pb->residual_at(x, f);
+    return 0;
+  }
+  // Forward differences with a fixed step of 0.01 normalised units (0.01 K for temperatures,
+  // 0.1 % for h, g): the hysteresis is piecewise, so steps near machine precision would be noise.
+  int df(const Eigen::VectorXd& x, Eigen::MatrixXd& J) const {
+    Eigen::VectorXd f0, f1;
+    pb->residual_at(x, f0);
+    J.resize(f0.size(), x.size());
+    for (Eigen::Index i = 0; i < x.size(); ++i) {
+      Eigen::VectorXd xs = x;
+      double step = 0.01;
+      xs[i] += step;
+      if (!pb->residual_at(xs, f1)) {  // at a bound: step the other way
+        xs[i] = x[i] - step;
+        pb->residual_at(xs, f1);
+        step = -step;
+      }
+      J.col(i) = (f1 - f0) / step;
+    }
+    return 0;
+  }
+};
 
 // ---- several logs at once: what must agree ---------------------------------------------------
 // Logs fitted together must have the same sample rate (within 2 %) and the same column set:
