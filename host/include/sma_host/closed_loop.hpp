@@ -46,6 +46,9 @@ struct RunSetup {
   sma::Effects model_effects;
   sma::ControllerConfig config;
   sma::PreviewConfig preview;     // Mode::Preview (dt and v_max come from config)
+  // preview.plan_in_step = false: plan_step() calls after each tick's step() (the board's idle
+  // time between ticks).
+  int idle_plan_steps = 4;
   sma::Mode mode = sma::Mode::FeedforwardPid;
   sma::Reference reference = sma::Reference::sine();
   Condition condition;
@@ -120,7 +123,11 @@ std::vector<Sample> run_preview_loop_on(PlantT& plant, const RunSetup& s) {
   sma::ReferenceGen<T> ref(s.reference);
   return run_loop_on<T>(plant, s, ref, [&](double t, T r, double meas) {
     auto future = [&](T tau) { return ref.at(t + sma::to_double(tau)); };
-    return Command{sma::to_double(ctl.step(r, future, sma::from_double<T>(meas))), 0.0};
+    const Command c{sma::to_double(ctl.step(r, future, sma::from_double<T>(meas))), 0.0};
+    if (!pc.plan_in_step)
+      for (int i = 0; i < s.idle_plan_steps; ++i)
+        if (ctl.plan_step(future)) break;
+    return c;
   });
 }
 
