@@ -155,15 +155,16 @@ TEST(Preview, FixedMultiStepCommitsToPlannedSwitch) {
   EXPECT_LE(mx.wrong_way_mm, 0.03);
 }
 
-// Planning in the board's idle time (plan_in_step = false, plan_step() after each tick, as
-// many grid steps as the tick planned) tracks like planning inside the tick; with no idle time
+// Planning in the board's idle time (plan_in_step = false, plan_step() after each tick: the
+// next tick's lead sample, then as many grid steps as the tick planned) tracks like planning
+// inside the tick; with no idle time
 // at all the controller never switches early and the sine falls behind (the plan matters).
 TEST(Preview, IdlePlanningTracksLikeInTickPlanning) {
   for (bool sine : {true, false}) {
     const RunSetup s = preview_setup(sine, true);
     RunSetup idle = s;
     idle.preview.plan_in_step = false;
-    idle.idle_plan_steps = s.preview.steps_per_tick;
+    idle.idle_plan_steps = s.preview.steps_per_tick + 1;
     const Metrics m = run<float>(s), mi = run<float>(idle);
     EXPECT_NEAR(mi.rms_mm, m.rms_mm, 0.003) << sine;
     EXPECT_LE(mi.max_mm, m.max_mm + 0.01) << sine;

@@ -142,6 +142,7 @@ class PreviewController {
     ref_extreme_ = mech_.displacement(eps_est_);
     have_ref_ = false;
     v_ = T(0);
+    lead_ready_ = false;
     restart_plan();
   }
 
@@ -161,7 +162,10 @@ class PreviewController {
       for (uint8_t k = 0; k < cfg_.steps_per_tick; ++k)
         if (plan_step(future)) break;
     // The commanded temperature: this branch's inverse of the reference track_s ahead.
-    T r_lead = future(from_double<T>(cfg_.track_s));
+    // (Planning between ticks, plan_step() has already sampled it for this tick: no reference
+    // evaluation left in the tick.)
+    T r_lead = lead_ready_ && !cfg_.plan_in_step ? lead_ : future(from_double<T>(cfg_.track_s));
+    lead_ready_ = false;
     if (!is_finite(r_lead)) r_lead = ref;
     const T T_cmd = branch_temperature(heating_, est_, T_est_, clamp(r_lead, T(0), mech_.g));
     const T slope = (T_cmd - T_est_) * inv_track_;
@@ -178,13 +182,20 @@ class PreviewController {
   }
 
   // One grid step of the plan in progress (bounded work: one thermal step, one hysteresis
-  // update, at most one future() call); true when it completed a plan (and decided). With
+  // update, at most one future() call); true when it completed a plan (and decided). The
+  // first call after a tick samples the next tick's lead reference instead (so the tick itself
+  // evaluates no future reference). With
   // plan_in_step = false the board calls it between ticks, as often as its idle time allows;
   // future(tau) is then the reference tau seconds after the last step()'s tick. Not from an
   // interrupt that can preempt step().
   template <class Future>
   bool plan_step(const Future& future) {
     if (!valid_) return false;
+    if (!cfg_.plan_in_step && !lead_ready_) {  // first call after a tick: the next tick's lead sample (track_s ahead)
+      lead_ = future(from_double<T>(cfg_.track_s + cfg_.dt));
+      lead_ready_ = true;
+      return false;
+    }
     if (j_ >= n_grid_ && next_candidate()) return true;
     sim_step(future);
     return false;
@@ -375,6 +386,9 @@ class PreviewController {
   uint16_t switch_due_ = 0;  // ticks until a planned branch switch, 0 = none
   T best_cost_ = T(-1), natural_cost_ = T(0), cost_ = T(0), sim_T_ = T(22), sim_ext_ = T(0);
   bool sim_heat_ = true, sim_moved_ = true, sim_fall_ = false;
+  // The reference track_s after the next tick, sampled between ticks by plan_step().
+  T lead_ = T(0);
+  bool lead_ready_ = false;
 };
 
 }  // namespace sma
