@@ -56,6 +56,9 @@ std::vector<Case> cases() {
   m.h *= 0.9;
   out.push_back({"model h -10 %", m, {}, {}, false});
   m = p;
+  m.h *= 1.1;
+  out.push_back({"model h +10 %", m, {}, {}, false});
+  m = p;
   m.g *= 1.03;
   out.push_back({"model g +3 %", m, {}, {}, false});
   out.push_back({"plant B (literal) as the wire", p, {}, {}, true});
