@@ -19,11 +19,16 @@ void group(const char* name) {
   GPIOR1 = 0;
 }
 
+// steps_per_tick = 0: the plan runs outside step() (plan_in_step = false), idle_steps
+// plan_step() calls between ticks (the first samples the next tick's lead reference); the
+// samples are step() (measure_idle false) or each plan_step() call (true).
 template <class T>
-__attribute__((noinline)) void run(const char* name, uint8_t steps_per_tick, bool pwm) {
+__attribute__((noinline)) void run(const char* name, uint8_t steps_per_tick, bool pwm, uint8_t idle_steps = 0,
+                                   bool measure_idle = false) {
   group(name);
   sma::PreviewConfig cfg;
-  cfg.steps_per_tick = steps_per_tick;
+  cfg.steps_per_tick = steps_per_tick ? steps_per_tick : 1;
+  cfg.plan_in_step = steps_per_tick > 0;
   if (pwm) cfg.pwm_top = 15999;  // the firmware's 14-bit PWM at 1 kHz
   sma::PreviewController<T> c(sma::Params(), sma::Effects(), cfg);
   sma::ReferenceGen<T> ref(sma::Reference::sine());
@@ -31,10 +36,19 @@ __attribute__((noinline)) void run(const char* name, uint8_t steps_per_tick, boo
   for (int k = 0; k < 1500; ++k) {
     const double t = 40.0 + 0.01 * k;
     auto future = [&](T tau) { return ref.at(t + sma::to_double(tau)); };
-    GPIOR0 = 1;
+    // tick_only: the reference now is left out (the board's control section computes it for
+    // every controller); the lead sample future(track_s) inside step() is counted.
+    if (!measure_idle && steps_per_tick > 0) GPIOR0 = 1;
     const T r = ref.at(t);
+    if (!measure_idle && steps_per_tick == 0) GPIOR0 = 1;
     const T v = c.step(r, future, measured);
-    GPIOR0 = 2;
+    if (!measure_idle) GPIOR0 = 2;
+    for (uint8_t i = 0; i < idle_steps; ++i) {
+      if (measure_idle) GPIOR0 = 1;
+      const bool done = c.plan_step(future);
+      if (measure_idle) GPIOR0 = 2;
+      if (done) break;
+    }
     g_sink = static_cast<float>(sma::to_double(v));
     measured = r;
   }
@@ -45,11 +59,15 @@ int main() {
 #ifdef SMA_PREVIEW_FIXED
   run<sma::Fixed>("fixed.steps1.pwm", 1, true);
   run<sma::Fixed>("fixed.steps1", 1, false);
+  run<sma::Fixed>("fixed.tick_only.pwm", 0, true, 5);
+  run<sma::Fixed>("fixed.plan_step.pwm", 0, true, 5, true);
 #else
   run<float>("float.steps4.pwm", 4, true);
   run<float>("float.steps4", 4, false);
   run<float>("float.steps1.pwm", 1, true);
   run<float>("float.steps1", 1, false);
+  run<float>("float.tick_only.pwm", 0, true, 5);
+  run<float>("float.plan_step.pwm", 0, true, 5, true);
 #endif
   for (uint8_t i = 0; i < 5; ++i) GPIOR2 = 0;  // no self-check here: report a pass
   cli();

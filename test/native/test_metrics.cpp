@@ -113,3 +113,24 @@ TEST(Metrics, SineWrongWayAfterPeak) {
   EXPECT_NEAR(m.max_mm, m.max_fall_mm, 1e-12);
 }
 }  // namespace
+
+namespace {
+// Overshoot past each new setpoint within a window after its step: an up-step to 1.0 that
+// passes it by 0.03 mm at 2 s, a down-step to 0.4 that dips 0.02 mm below at 3 s and later (12 s
+// into the step, outside a 10 s window) leaves 0.05 mm below on purpose.
+TEST(Metrics, StepOvershootWithinWindow) {
+  std::vector<sma_host::Sample> run;
+  for (int k = 0; k < 4000; ++k) {
+    const double t = 0.01 * k;
+    double ref = 1.0, pos = 1.0;
+    if (t < 20.0) pos = fabs(t - 2.0) < 0.5 ? 1.03 : 1.0;
+    else {
+      ref = 0.4;
+      pos = fabs(t - 23.0) < 0.5 ? 0.38 : (t > 32.0 ? 0.35 : 0.4);
+    }
+    run.push_back(at(t, ref, pos));
+  }
+  EXPECT_NEAR(sma_host::step_overshoot_mm(run, 20.0, 10.0), 0.03, 1e-12);
+  EXPECT_NEAR(sma_host::step_overshoot_mm(run, 20.0, 15.0), 0.05, 1e-12);
+}
+}  // namespace

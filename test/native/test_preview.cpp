@@ -78,6 +78,59 @@ TEST(Preview, NoOvershootWithExactLatentHeatModel) {
   EXPECT_LT(m.sse_mm, 0.005);
 }
 
+// A wire with latent heat (1 J) and models of it from none to exact: a more exact model never
+// tracks worse (whole-run RMS on both references, the sine's max, the steps' SSE and overshoot
+// past each new setpoint within 10 s of its step), and the exact one overshoots no step by more
+// than 0.01 mm. (The steps' whole-run max is the 0.2 mm jump at t = 0 plus its transient.)
+TEST(Preview, MoreExactLatentHeatModelNeverTracksWorse) {
+  const double models_J[] = {0.0, 0.5, 1.0};
+  Metrics prev_sine, prev_steps;
+  double prev_over = 0;
+  for (int i = 0; i < 3; ++i) {
+    RunSetup s = preview_setup(false, true);
+    s.plant_effects.latent_heat_J = 1.0;
+    s.model_effects.latent_heat_J = models_J[i];
+    std::vector<sma_host::Sample> r;
+    const Metrics ms = run<float>(s, &r);
+    const double over = sma_host::step_overshoot_mm(r, s.reference.step_s, 10.0);
+    s.reference = sma::Reference::sine();
+    const Metrics mn = run<float>(s);
+    if (i > 0) {
+      EXPECT_LE(ms.rms_mm, prev_steps.rms_mm) << models_J[i];
+      EXPECT_LE(ms.sse_mm, prev_steps.sse_mm + 0.001) << models_J[i];
+      EXPECT_LE(over, prev_over + 0.001) << models_J[i];
+      EXPECT_LE(mn.rms_mm, prev_sine.rms_mm) << models_J[i];
+      EXPECT_LE(mn.max_mm, prev_sine.max_mm) << models_J[i];
+    }
+    prev_steps = ms;
+    prev_sine = mn;
+    prev_over = over;
+  }
+  EXPECT_LE(prev_over, 0.01);
+  EXPECT_LE(prev_steps.rms_mm, 0.05);
+  EXPECT_LT(prev_steps.sse_mm, 0.005);
+}
+
+// A model that is not the wire (a fit a little off): the steps still reach their setpoints
+// and the whole run stays within the targets and below PID alone's RMS.
+// Not yet met for a convection coefficient h 10 % low (docs/control.md, open points).
+TEST(Preview, PerturbedModelKeepsTheSetpoints) {
+  RunSetup pid = preview_setup(false, true);
+  pid.mode = sma::Mode::Pid;
+  pid.config.gains = sma::console::default_gains(sma::Mode::Pid);
+  const Metrics mp = run<float>(pid);
+  for (int k = 0; k < 3; ++k) {
+    RunSetup s = preview_setup(false, true);
+    if (k == 0) s.model_params.T_AS += 2.0, s.model_params.T_AF += 2.0;
+    if (k == 1) s.model_params.T_AS -= 2.0, s.model_params.T_AF -= 2.0;
+    if (k == 2) s.model_params.g *= 1.03;
+    const Metrics m = run<float>(s);
+    EXPECT_LE(m.rms_mm, 0.05) << k;
+    EXPECT_LT(m.rms_mm, mp.rms_mm) << k;
+    EXPECT_LE(m.sse_mm, 0.011) << k;
+  }
+}
+
 // Float tracks like double; Q16.16 runs the same plan without blowing up (it is still
 // behind float on the sine: docs/control.md, open points).
 TEST(Preview, FixedAndFloatTrackLikeDouble) {
@@ -100,6 +153,26 @@ TEST(Preview, FixedMultiStepCommitsToPlannedSwitch) {
   EXPECT_LE(mx.rms_mm, 0.05);
   EXPECT_NEAR(mx.rms_mm, md.rms_mm, 0.005);
   EXPECT_LE(mx.wrong_way_mm, 0.03);
+}
+
+// Planning in the board's idle time (plan_in_step = false, plan_step() after each tick: the
+// next tick's lead sample, then as many grid steps as the tick planned) tracks like planning
+// inside the tick; with no idle time
+// at all the controller never switches early and the sine falls behind (the plan matters).
+TEST(Preview, IdlePlanningTracksLikeInTickPlanning) {
+  for (bool sine : {true, false}) {
+    const RunSetup s = preview_setup(sine, true);
+    RunSetup idle = s;
+    idle.preview.plan_in_step = false;
+    idle.idle_plan_steps = s.preview.steps_per_tick + 1;
+    const Metrics m = run<float>(s), mi = run<float>(idle);
+    EXPECT_NEAR(mi.rms_mm, m.rms_mm, 0.003) << sine;
+    EXPECT_LE(mi.max_mm, m.max_mm + 0.01) << sine;
+    if (sine) {
+      idle.idle_plan_steps = 0;
+      EXPECT_GT(run<float>(idle).max_mm, 0.1);
+    }
+  }
 }
 
 // NaN in: heater off.

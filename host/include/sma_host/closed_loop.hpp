@@ -27,7 +27,7 @@ struct Sample {
 struct Condition {
   const char* name = "ideal";
   sma::RigOptions rig;      // noise, ADC step, PWM levels
-  int compute_delay_ticks = 0;  // V computed at tick k is applied from tick k + delay
+  int compute_delay_ticks = 0;  // extra ticks before a command reaches the heater (DelayLine)
 
   static Condition ideal() { return Condition(); }
   static Condition rig_like() {
@@ -46,6 +46,9 @@ struct RunSetup {
   sma::Effects model_effects;
   sma::ControllerConfig config;
   sma::PreviewConfig preview;     // Mode::Preview (dt and v_max come from config)
+  // preview.plan_in_step = false: plan_step() calls after each tick's step() (the board's idle
+  // time between ticks).
+  int idle_plan_steps = 4;
   sma::Mode mode = sma::Mode::FeedforwardPid;
   sma::Reference reference = sma::Reference::sine();
   Condition condition;
@@ -59,10 +62,56 @@ inline bool has_sensor_effects(const sma::Effects& fx) {
   return fx.sensor_delay_s > 0 || fx.sensor_lag_s > 0 || fx.sensor_gain != 1.0 || fx.sensor_offset_mm != 0.0;
 }
 
-// Mode::Preview: the PreviewController, given the reference's future as the board would
-// (ReferenceGen at t + tau). Same delay and sampling as run_closed_loop. PlantT is sma::Plant
+// The command computed from the measurement of tick k drives the heater from tick k + 1 (the
+// firmware writes the PWM for the next period), plus compute_delay_ticks more. A fixed ring of
+// delay + 1 slots: each push returns the command pushed delay + 1 ticks earlier (0 V before).
+class DelayLine {
+ public:
+  explicit DelayLine(int delay_ticks) : slots_(static_cast<size_t>(delay_ticks > 0 ? delay_ticks : 0) + 1, 0.0) {}
+  double push(double v) {
+    const double oldest = slots_[head_];
+    slots_[head_] = v;
+    head_ = (head_ + 1) % slots_.size();
+    return oldest;
+  }
+
+ private:
+  std::vector<double> slots_;
+  size_t head_ = 0;
+};
+
+// The loop as the firmware runs it, one tick: measure, compute, apply (after the delay),
+// record. compute(t, r, meas) -> {voltage command, its feedforward part}. PlantT is sma::Plant
 // or any plant with its interface (measure, displacement, applied_voltage, temperature, step),
 // e.g. plant B (plant_b_rig.hpp); s.plant_params/plant_effects are not read here.
+struct Command {
+  double v;
+  double v1;
+};
+
+template <class T, class PlantT, class Compute>
+std::vector<Sample> run_loop_on(PlantT& plant, const RunSetup& s, sma::ReferenceGen<T>& ref, Compute compute) {
+  const double dt = s.config.dt;
+  const double duration = s.duration_s > 0.0 ? s.duration_s : s.reference.duration();
+  const long n = static_cast<long>(duration / dt + 0.5);
+  DelayLine delay(s.condition.compute_delay_ticks);
+  std::vector<Sample> out;
+  out.reserve(static_cast<size_t>(n));
+  for (long k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) * dt;
+    const double meas = plant.measure();
+    const T r = ref.at(t);
+    const Command c = compute(t, r, meas);
+    const double v = delay.push(c.v);
+    out.push_back({t, sma::to_double(r), meas, plant.displacement(), plant.applied_voltage(v), c.v1,
+                   plant.temperature()});
+    plant.step(v, dt);
+  }
+  return out;
+}
+
+// Mode::Preview: the PreviewController, given the reference's future as the board would
+// (ReferenceGen at t + tau).
 template <class T, class PlantT>
 std::vector<Sample> run_preview_loop_on(PlantT& plant, const RunSetup& s) {
   sma::PreviewConfig pc = s.preview;
@@ -72,26 +121,14 @@ std::vector<Sample> run_preview_loop_on(PlantT& plant, const RunSetup& s) {
   pc.v_supply = s.condition.rig.v_supply;
   sma::PreviewController<T> ctl(s.model_params, s.model_effects, pc);
   sma::ReferenceGen<T> ref(s.reference);
-  const double dt = s.config.dt;
-  const double duration = s.duration_s > 0.0 ? s.duration_s : s.reference.duration();
-  const long n = static_cast<long>(duration / dt + 0.5);
-  std::vector<double> pending(static_cast<size_t>(s.condition.compute_delay_ticks) + 1, 0.0);
-  std::vector<Sample> out;
-  out.reserve(static_cast<size_t>(n));
-  for (long k = 0; k < n; ++k) {
-    const double t = static_cast<double>(k) * dt;
-    const double meas = plant.measure();
-    const T r = ref.at(t);
+  return run_loop_on<T>(plant, s, ref, [&](double t, T r, double meas) {
     auto future = [&](T tau) { return ref.at(t + sma::to_double(tau)); };
-    const double v_cmd = sma::to_double(ctl.step(r, future, sma::from_double<T>(meas)));
-    pending.push_back(v_cmd);
-    const double v = pending.front();
-    pending.erase(pending.begin());
-    out.push_back({t, sma::to_double(r), meas, plant.displacement(), plant.applied_voltage(v), 0.0,
-                   plant.temperature()});
-    plant.step(v, dt);
-  }
-  return out;
+    const Command c{sma::to_double(ctl.step(r, future, sma::from_double<T>(meas))), 0.0};
+    if (!pc.plan_in_step)
+      for (int i = 0; i < s.idle_plan_steps; ++i)
+        if (ctl.plan_step(future)) break;
+    return c;
+  });
 }
 
 template <class T>
@@ -100,15 +137,12 @@ std::vector<Sample> run_preview_loop(const RunSetup& s) {
   return run_preview_loop_on<T>(plant, s);
 }
 
-// Any controller mode against a given plant (see run_preview_loop_on for PlantT).
+// Any controller mode against a given plant (see run_loop_on for PlantT).
 template <class T, class PlantT>
 std::vector<Sample> run_closed_loop_on(PlantT& plant, const RunSetup& s) {
   if (s.mode == sma::Mode::Preview) return run_preview_loop_on<T>(plant, s);
   sma::Controller<T> ctl(s.model_params, s.model_effects, s.config);
   sma::ReferenceGen<T> ref(s.reference);
-  const double dt = s.config.dt;
-  const double duration = s.duration_s > 0.0 ? s.duration_s : s.reference.duration();
-  const long n = static_cast<long>(duration / dt + 0.5);
   sma::SensorPredictor<T> sensor(ctl.inverse().curves(), s.model_params, s.model_effects, s.config.dt);
   const bool compensate = s.compensate_sensor && has_sensor_effects(s.model_effects);
   auto feedback = [&](double meas) {
@@ -116,23 +150,10 @@ std::vector<Sample> run_closed_loop_on(PlantT& plant, const RunSetup& s) {
     return compensate ? sensor.correct(m, ctl.wire_temperature()) : m;
   };
   ctl.set_mode(s.mode, feedback(plant.measure()));
-  std::vector<double> pending(static_cast<size_t>(s.condition.compute_delay_ticks) + 1, 0.0);
-  std::vector<Sample> out;
-  out.reserve(static_cast<size_t>(n));
-  for (long k = 0; k < n; ++k) {
-    const double t = static_cast<double>(k) * dt;
-    const double meas = plant.measure();
-    const T r = ref.at(t);
-    const double v_cmd = sma::to_double(ctl.step(r, feedback(meas)));
-    // Computation delay: the command reaches the heater `delay` ticks later.
-    pending.push_back(v_cmd);
-    const double v = pending.front();
-    pending.erase(pending.begin());
-    out.push_back({t, sma::to_double(r), meas, plant.displacement(), plant.applied_voltage(v),
-                   sma::to_double(ctl.v1()), plant.temperature()});
-    plant.step(v, dt);
-  }
-  return out;
+  return run_loop_on<T>(plant, s, ref, [&](double, T r, double meas) {
+    const double v = sma::to_double(ctl.step(r, feedback(meas)));
+    return Command{v, sma::to_double(ctl.v1())};
+  });
 }
 
 template <class T>

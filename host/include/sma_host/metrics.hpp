@@ -134,6 +134,25 @@ inline Metrics sine_metrics(const std::vector<Sample>& run, double period_s, boo
   return m;
 }
 
+// Steps: how far the position passes each new setpoint in the step's direction (up: above
+// it, down: below it) within the first window_s of the step, the max over the steps, mm. The
+// window leaves out a deliberate early departure towards the next step.
+inline double step_overshoot_mm(const std::vector<Sample>& run, double step_s, double window_s,
+                                bool measured = false) {
+  double over = 0;
+  size_t start = 0;
+  while (start < run.size()) {
+    size_t end = start;
+    while (end < run.size() && run[end].t < run[start].t + step_s - 1e-9) ++end;
+    const double step = run[start].ref - (start > 0 ? run[start - 1].ref : 0.0);
+    if (fabs(step) > 1e-9)
+      for (size_t k = start; k < end && run[k].t < run[start].t + window_s; ++k)
+        over = fmax(over, step > 0 ? -err_of(run[k], measured) : err_of(run[k], measured));
+    start = end;
+  }
+  return over;
+}
+
 inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool measured = false) {
   Metrics m;
   detail::Acc all, rise, fall, heat;

@@ -51,6 +51,9 @@ struct PreviewConfig {
   double horizon_s = 16.0;     // planning horizon: a peak, its rise and flat stage (~7 s)
   double grid_s = 0.5;         // planning grid (thermal steps are exact at any grid)
   uint8_t steps_per_tick = 4;  // planning grid steps simulated per tick (cycle budget)
+  // Plan inside step() (steps_per_tick grid steps a tick), or not: a board whose tick cannot
+  // hold a grid step (~7-25 k AVR cycles) sets it false and calls plan_step() in its idle time.
+  bool plan_in_step = true;
   double track_s = 0.4;        // pull of the model wire onto the commanded temperature, s
   double offset_tau_s = 1.0;   // integral action: time constant of the offset estimate, s
   double cool_weight = 1.0;    // trade-off: weight of errors while the reference falls
@@ -139,6 +142,7 @@ class PreviewController {
     ref_extreme_ = mech_.displacement(eps_est_);
     have_ref_ = false;
     v_ = T(0);
+    lead_ready_ = false;
     restart_plan();
   }
 
@@ -153,9 +157,15 @@ class PreviewController {
     d_ = d_ + d_alpha_ * ((measured - mech_.displacement(eps_est_)) - d_);
     follow_reference(ref);
     if (switch_due_ > 0 && --switch_due_ == 0) switch_branch();
-    plan(future);
+    ++elapsed_ticks_;
+    if (cfg_.plan_in_step)
+      for (uint8_t k = 0; k < cfg_.steps_per_tick; ++k)
+        if (plan_step(future)) break;
     // The commanded temperature: this branch's inverse of the reference track_s ahead.
-    T r_lead = future(from_double<T>(cfg_.track_s));
+    // (Planning between ticks, plan_step() has already sampled it for this tick: no reference
+    // evaluation left in the tick.)
+    T r_lead = lead_ready_ && !cfg_.plan_in_step ? lead_ : future(from_double<T>(cfg_.track_s));
+    lead_ready_ = false;
     if (!is_finite(r_lead)) r_lead = ref;
     const T T_cmd = branch_temperature(heating_, est_, T_est_, clamp(r_lead, T(0), mech_.g));
     const T slope = (T_cmd - T_est_) * inv_track_;
@@ -169,6 +179,26 @@ class PreviewController {
     deps_ = (eps_new - eps_est_) * inv_dt_;
     eps_est_ = eps_new;
     return v_;
+  }
+
+  // One grid step of the plan in progress (bounded work: one thermal step, one hysteresis
+  // update, at most one future() call); true when it completed a plan (and decided). The
+  // first call after a tick samples the next tick's lead reference instead (so the tick itself
+  // evaluates no future reference). With
+  // plan_in_step = false the board calls it between ticks, as often as its idle time allows;
+  // future(tau) is then the reference tau seconds after the last step()'s tick. Not from an
+  // interrupt that can preempt step().
+  template <class Future>
+  bool plan_step(const Future& future) {
+    if (!valid_) return false;
+    if (!cfg_.plan_in_step && !lead_ready_) {  // first call after a tick: the next tick's lead sample (track_s ahead)
+      lead_ = future(from_double<T>(cfg_.track_s + cfg_.dt));
+      lead_ready_ = true;
+      return false;
+    }
+    if (j_ >= n_grid_ && next_candidate()) return true;
+    sim_step(future);
+    return false;
   }
 
   T voltage() const { return v_; }
@@ -256,41 +286,36 @@ class PreviewController {
     cost_ = T(0);
   }
 
-  // Advance the plan by steps_per_tick grid steps; decide when every candidate is scored.
-  template <class Future>
-  void plan(const Future& future) {
-    ++elapsed_ticks_;
-    for (uint8_t s = 0; s < cfg_.steps_per_tick; ++s) {
-      if (j_ >= n_grid_) {
-        // Ties keep the later switch; and switching at all (any timed candidate) must beat
-        // following the reference by the margin: a switch that buys little is not made
-        // (e.g. heating a wire on a flat stage, which moves nothing yet).
-        if (switch_at_[cand_] == kNever) natural_cost_ = cost_;
-        if (best_cost_ < T(0) || cost_ < best_cost_) {
-          best_cost_ = cost_;
-          best_ = switch_at_[cand_];
-        }
-        if (++cand_ >= kCandidates) {
-          ++plans_;
-          // commit_switch: a timed switch that wins is kept as a commitment (due when its time
-          // comes, unless a later plan prefers otherwise); without it only "now" switches, and
-          // a switch that every new plan puts a few seconds later is never made.
-          switch_due_ = 0;
-          if (cfg_.commit_switch && best_ != kNever && best_cost_ < natural_cost_ - switch_margin_) {
-            const long due = static_cast<long>(best_ * cfg_.grid_s / cfg_.dt + 0.5) - elapsed_ticks_;
-            if (due <= 0) switch_branch();
-            else switch_due_ = static_cast<uint16_t>(due);
-          } else if (best_ == 0 && best_cost_ < natural_cost_ - switch_margin_) {
-            switch_branch();
-          }
-          restart_plan();
-          return;
-        }
-        j_ = 0;
-        start_sim();
-      }
-      sim_step(future);
+  // The simulation of candidate cand_ is complete: score it; after the last candidate decide
+  // and start the next plan (true), else start the next candidate (false).
+  bool next_candidate() {
+    // Ties keep the later switch; and switching at all (any timed candidate) must beat
+    // following the reference by the margin: a switch that buys little is not made
+    // (e.g. heating a wire on a flat stage, which moves nothing yet).
+    if (switch_at_[cand_] == kNever) natural_cost_ = cost_;
+    if (best_cost_ < T(0) || cost_ < best_cost_) {
+      best_cost_ = cost_;
+      best_ = switch_at_[cand_];
     }
+    if (++cand_ >= kCandidates) {
+      ++plans_;
+      // commit_switch: a timed switch that wins is kept as a commitment (due when its time
+      // comes, unless a later plan prefers otherwise); without it only "now" switches, and
+      // a switch that every new plan puts a few seconds later is never made.
+      switch_due_ = 0;
+      if (cfg_.commit_switch && best_ != kNever && best_cost_ < natural_cost_ - switch_margin_) {
+        const long due = static_cast<long>(best_ * cfg_.grid_s / cfg_.dt + 0.5) - elapsed_ticks_;
+        if (due <= 0) switch_branch();
+        else switch_due_ = static_cast<uint16_t>(due);
+      } else if (best_ == 0 && best_cost_ < natural_cost_ - switch_margin_) {
+        switch_branch();
+      }
+      restart_plan();
+      return true;
+    }
+    j_ = 0;
+    start_sim();
+    return false;
   }
 
   // One grid step of candidate cand_ (switch at grid index switch_at_[cand_]).
@@ -361,6 +386,9 @@ class PreviewController {
   uint16_t switch_due_ = 0;  // ticks until a planned branch switch, 0 = none
   T best_cost_ = T(-1), natural_cost_ = T(0), cost_ = T(0), sim_T_ = T(22), sim_ext_ = T(0);
   bool sim_heat_ = true, sim_moved_ = true, sim_fall_ = false;
+  // The reference track_s after the next tick, sampled between ticks by plan_step().
+  T lead_ = T(0);
+  bool lead_ready_ = false;
 };
 
 }  // namespace sma

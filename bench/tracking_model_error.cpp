@@ -1,0 +1,142 @@
+// Tracking when the model on the board is not the wire: (a) a fitted model that is off (T_AS
+// and T_AF shifted, h or g scaled, or plant B as the wire), (b) a wire with latent heat and
+// models of it from none to exact. Rig-like, float (the firmware's scalar), default settings
+// of every controller (console::default_gains, PreviewConfig()), true position, whole run.
+// The steps' figures that matter here: SSE (zero steady-state error with a model that is not
+// the plant), RMS against PID alone, and the up/down-step overshoot within 10 s of a step.
+// Prints a Markdown table and writes JSON.
+//
+//   bench_tracking_model_error [--json FILE]
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+#include "sma/console.hpp"
+#include "sma_host/metrics.hpp"
+#include "sma_host/plant_b_rig.hpp"
+
+using sma_host::Metrics;
+using sma_host::RunSetup;
+
+namespace {
+struct Case {
+  std::string name;
+  sma::Params model;      // what the board believes
+  sma::Effects plant_fx;  // what the wire does (library plant)
+  sma::Effects model_fx;
+  bool plant_b = false;   // the wire is plant B (literal re-heat reading)
+};
+
+struct Row {
+  std::string kase, test, controller;
+  Metrics m;
+  double overshoot_mm;
+};
+
+std::vector<sma_host::Sample> run(const Case& c, const RunSetup& s) {
+  if (!c.plant_b) return sma_host::run_closed_loop<float>(s);
+  sma_host::plant_b::Wire w;
+  sma_host::plant_b::RigB rig(w, sma_host::plant_b::WireEffects(), s.condition.rig, s.config.dt);
+  return sma_host::run_closed_loop_on<float>(rig, s);
+}
+
+std::vector<Case> cases() {
+  std::vector<Case> out;
+  const sma::Params p;
+  out.push_back({"exact model", p, {}, {}, false});
+  sma::Params m = p;
+  m.T_AS += 2.0;
+  m.T_AF += 2.0;
+  out.push_back({"model T_AS, T_AF +2 K", m, {}, {}, false});
+  m = p;
+  m.T_AS -= 2.0;
+  m.T_AF -= 2.0;
+  out.push_back({"model T_AS, T_AF -2 K", m, {}, {}, false});
+  m = p;
+  m.h *= 0.9;
+  out.push_back({"model h -10 %", m, {}, {}, false});
+  m = p;
+  m.h *= 1.1;
+  out.push_back({"model h +10 %", m, {}, {}, false});
+  m = p;
+  m.g *= 1.03;
+  out.push_back({"model g +3 %", m, {}, {}, false});
+  out.push_back({"plant B (literal) as the wire", p, {}, {}, true});
+  for (double L : {0.0, 0.5, 1.0}) {
+    sma::Effects wire;
+    wire.latent_heat_J = 1.0;
+    sma::Effects model;
+    model.latent_heat_J = L;
+    char name[64];
+    std::snprintf(name, sizeof name, "latent heat 1 J, model %.1f J", L);
+    out.push_back({name, p, wire, model, false});
+  }
+  return out;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  const char* json_path = "bench_tracking_model_error.json";
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--json") && i + 1 < argc) json_path = argv[++i];
+    else {
+      std::fprintf(stderr, "usage: %s [--json FILE]\n", argv[0]);
+      return 2;
+    }
+  }
+  const sma::Mode modes[] = {sma::Mode::Pid, sma::Mode::FeedforwardPid, sma::Mode::Preview};
+  const std::vector<Case> cs = cases();
+  std::vector<Row> rows;
+  int done = 0;
+  for (const Case& c : cs)
+    for (int sine = 0; sine <= 1; ++sine)
+      for (sma::Mode mode : modes) {
+        std::fprintf(stderr, "\r[%2d/%2d] %-32s", ++done, static_cast<int>(cs.size() * 6), c.name.c_str());
+        RunSetup s;
+        s.mode = mode;
+        s.condition = sma_host::Condition::rig_like();
+        s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
+        s.model_params = c.model;
+        s.plant_effects = c.plant_fx;
+        s.model_effects = c.model_fx;
+        if (mode != sma::Mode::Preview) s.config.gains = sma::console::default_gains(mode);
+        const std::vector<sma_host::Sample> r = run(c, s);
+        Row row{c.name, sine ? "sine" : "multi-step", sma::mode_name(mode), Metrics(), 0.0};
+        if (sine) {
+          row.m = sma_host::sine_metrics(r, s.reference.sine_period_s);
+        } else {
+          row.m = sma_host::step_metrics(r, s.reference.step_s);
+          row.overshoot_mm = sma_host::step_overshoot_mm(r, s.reference.step_s, 10.0);
+        }
+        rows.push_back(row);
+      }
+  std::fprintf(stderr, "\n");
+  std::printf("Rig-like, float, default settings; true position, whole run (sine after its first "
+              "period). Overshoot: past each new setpoint within 10 s of its step.\n\n"
+              "| case | test | controller | max mm | RMS mm | max fall mm | wrong-way mm | SSE mm | overshoot mm |\n"
+              "|---|---|---|---|---|---|---|---|---|\n");
+  for (const Row& r : rows)
+    std::printf("| %s | %s | %s | %.4f | %.4f | %.4f | %.4f | %s | %s |\n", r.kase.c_str(), r.test.c_str(),
+                r.controller.c_str(), r.m.max_mm, r.m.rms_mm, r.m.max_fall_mm, r.m.wrong_way_mm,
+                r.test == "sine" ? "-" : std::to_string(r.m.sse_mm).substr(0, 6).c_str(),
+                r.test == "sine" ? "-" : std::to_string(r.overshoot_mm).substr(0, 6).c_str());
+  FILE* f = std::fopen(json_path, "w");
+  if (!f) {
+    std::perror(json_path);
+    return 1;
+  }
+  std::fprintf(f, "{\n  \"runs\": [\n");
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const Row& r = rows[i];
+    std::fprintf(f,
+                 "    {\"case\": \"%s\", \"test\": \"%s\", \"condition\": \"rig-like\", \"scalar\": \"float\", "
+                 "\"controller\": \"%s\", \"max_mm\": %.6f, \"rms_mm\": %.6f, \"max_fall_mm\": %.6f, "
+                 "\"wrong_way_mm\": %.6f, \"sse_mm\": %.6f, \"overshoot_mm\": %.6f}%s\n",
+                 r.kase.c_str(), r.test.c_str(), r.controller.c_str(), r.m.max_mm, r.m.rms_mm, r.m.max_fall_mm,
+                 r.m.wrong_way_mm, r.m.sse_mm, r.overshoot_mm, i + 1 < rows.size() ? "," : "");
+  }
+  std::fprintf(f, "  ]\n}\n");
+  std::fclose(f);
+  std::printf("wrote %s\n", json_path);
+  return 0;
+}
