@@ -9,8 +9,8 @@
 //   GPIOR2 <- at the end: the number of self-check mismatches, then the 4 bytes (LSB first) of
 //             sweep::fixed_results_hash()
 // The self-check runs the AVR assembly paths of fixed.hpp (mul16, mul32x16, mulhi32, the Q16.16
-// multiply) against their portable C versions on pseudo-random operands: host tests cannot
-// execute the assembly.
+// multiply, the saturating add and subtract) against their portable C versions on pseudo-random
+// operands: host tests cannot execute the assembly.
 // The hash fingerprints every Fixed operation's results; sweep_host prints the host's, and the
 // CTest test requires them to be equal (bit-identical results on the host and the AVR).
 //
@@ -103,6 +103,15 @@ uint8_t self_check() {
           sma::fixed_detail::mul_raw_portable(edges[i], edges[j])) {
         ++mismatches;
       }
+      // The saturating add and subtract: the edges overflow both ways.
+      if (sma::fixed_detail::add_raw(edges[i], edges[j]) !=
+          sma::fixed_detail::add_raw_portable(edges[i], edges[j])) {
+        ++mismatches;
+      }
+      if (sma::fixed_detail::sub_raw(edges[i], edges[j]) !=
+          sma::fixed_detail::sub_raw_portable(edges[i], edges[j])) {
+        ++mismatches;
+      }
     }
   }
   for (uint16_t i = 0; i < 20000; ++i) {
@@ -111,6 +120,8 @@ uint8_t self_check() {
     if (sma::fixed_detail::mul_raw(a, b) != sma::fixed_detail::mul_raw_portable(a, b)) {
       ++mismatches;
     }
+    if (sma::fixed_detail::add_raw(a, b) != sma::fixed_detail::add_raw_portable(a, b)) ++mismatches;
+    if (sma::fixed_detail::sub_raw(a, b) != sma::fixed_detail::sub_raw_portable(a, b)) ++mismatches;
     const uint16_t x = static_cast<uint16_t>(a);
     const uint16_t y = static_cast<uint16_t>(b);
     if (sma::fixed_detail::mul16(x, y) != mul16_libgcc(x, y)) ++mismatches;

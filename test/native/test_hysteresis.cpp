@@ -189,3 +189,73 @@ TEST(Hysteresis, SmallRipplesDoNotRatchetTheFraction) {
   }
   EXPECT_NEAR(h.eps(), e, 1e-12);
 }
+
+// The inverse model hands the memory the fraction it inverted (update(Tw, eps)) and builds a
+// reversal's loop once (prepare_cooling): the walk must be the one update(Tw) alone gives.
+TEST(Hysteresis, KnownFractionAndPreparedLoopWalkTheSamePath) {
+  sma::Hysteresis<double> plain(kCurves, 22.0), hinted(kCurves, 22.0);
+  const double path[] = {40, 64, 50, 66, 45, 66.5, 62, 70, 55, 72, 30, 80, 61, 90, 22};
+  double T = 22.0;
+  int reversals_checked = 0;
+  for (double to : path) {
+    const double s = to > T ? 0.25 : -0.25;
+    while ((to - T) * s > 0) {
+      T = fabs(to - T) < 0.25 ? to : T + s;
+      const double eps = plain.update(T);
+      double known;
+      if (s > 0) {
+        known = kCurves.eps_heat(T);
+      } else {
+        const sma::CoolingLoop<double> expect = hinted.loop_for_cooling();
+        const sma::CoolingLoop<double>& L = hinted.prepare_cooling();
+        ASSERT_EQ(L.T_MSi, expect.T_MSi);
+        ASSERT_EQ(L.top, expect.top);
+        ASSERT_EQ(hinted.loop_for_cooling().T_i, expect.T_i);  // still the prepared loop
+        reversals_checked += hinted.heating();
+        known = kCurves.eps_cool(L, T);
+      }
+      ASSERT_NEAR(hinted.update(T, known), eps, 1e-12) << "at T = " << T;
+      ASSERT_EQ(hinted.loop().T_MSi, plain.loop().T_MSi) << "at T = " << T;
+    }
+  }
+  EXPECT_GE(reversals_checked, 7);
+}
+
+// float's own cos_ramp_inv (a polynomial, scalar.hpp) against double acos: within 1e-6 of the
+// normalised result, monotone, exact at the ends and the middle.
+TEST(Hysteresis, FloatCosRampInvMatchesDouble) {
+  double worst = 0.0;
+  float prev = -1.0f;
+  for (int i = 0; i <= 200000; ++i) {
+    const float y = static_cast<float>(i) / 200000.0f;
+    const float r = sma::cos_ramp_inv(y);
+    worst = fmax(worst, fabs(static_cast<double>(r) - acos(1.0 - 2.0 * static_cast<double>(y)) / sma::kPi));
+    ASSERT_GE(r, prev) << "decreases at y = " << y;
+    prev = r;
+  }
+  EXPECT_LE(worst, 1e-6);
+  EXPECT_EQ(sma::cos_ramp_inv(0.0f), 0.0f);
+  EXPECT_NEAR(sma::cos_ramp_inv(0.5f), 0.5f, 1e-6);
+  EXPECT_EQ(sma::cos_ramp_inv(1.0f), 1.0f);
+  EXPECT_EQ(sma::cos_ramp_inv(-3.0f), 0.0f);
+  EXPECT_EQ(sma::cos_ramp_inv(NAN), 0.0f);
+}
+
+// float's own cos_ramp (a polynomial, scalar.hpp) against double cos: within float rounding
+// (2e-7), monotone, exact at the ends.
+TEST(Hysteresis, FloatCosRampMatchesDouble) {
+  double worst = 0.0;
+  float prev = -1.0f;
+  for (int i = 0; i <= 200000; ++i) {
+    const float x = static_cast<float>(i) / 200000.0f;
+    const float r = sma::cos_ramp(x);
+    worst = fmax(worst, fabs(static_cast<double>(r) - 0.5 * (1.0 - cos(sma::kPi * static_cast<double>(x)))));
+    ASSERT_GE(r, prev) << "decreases at x = " << x;
+    prev = r;
+  }
+  EXPECT_LE(worst, 2e-7);
+  EXPECT_EQ(sma::cos_ramp(0.0f), 0.0f);
+  EXPECT_EQ(sma::cos_ramp(1.0f), 1.0f);
+  EXPECT_EQ(sma::cos_ramp(2.0f), 1.0f);
+  EXPECT_EQ(sma::cos_ramp(NAN), 0.0f);
+}

@@ -93,7 +93,8 @@ class Controller {
     // The fraction for a phase-dependent resistance comes from the measurement (V_hold and the
     // estimate); latent heat is left out of the estimate (d(eps)/dt of a noisy measurement
     // would be all noise).
-    eps_meas_ = is_finite(measured) ? mech_.fraction(measured, T_wire_) : T(0);
+    // (Eq 1 of the paper does not need it: skip the work.)
+    if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? mech_.fraction(measured, T_wire_) : T(0);
     v_ = compute(ref, measured);
     T_wire_ = wire_step_(T_wire_, v_, eps_meas_);
     return v_;
@@ -115,7 +116,7 @@ class Controller {
   }
   // The voltage that holds the estimated wire temperature (eq 17, dT/dt = 0), at the measured
   // fraction: the same resistance R(eps) the estimate uses (phase-dependent resistance).
-  T thermal_hold() const { return inverse_.thermal().voltage_for(T_wire_, T(0), eps_meas_); }
+  T thermal_hold() const { return inverse_.thermal().hold_voltage(T_wire_, eps_meas_); }
 
   T compute(T ref, T measured) {
     v1_ = T(0);

@@ -68,17 +68,12 @@ class PhaseCurves {
   T heat_temperature(T eps) const { return T_AS_ + width_A_ * cos_ramp_inv(eps); }
 
   // Eqs 7-10: martensite start of a loop that peaked at T_i, before clamping.
-  T martensite_start(T T_i) const {
-    if (T_i > T_s_ && T_i < T_f_) {
-      const T nt = (T_i - T_s_) * inv_width_sf_;                                   // eq 9
-      const T n = ((((m_[5] * nt + m_[4]) * nt + m_[3]) * nt + m_[2]) * nt + m_[1]) * nt + m_[0];  // eq 8
-      return T_MSf_ + n * (T_MSs_ - T_MSf_);                                       // eq 7
-    }
-    return q_ * eps_heat(T_i) + e_;  // eq 10
-  }
+  T martensite_start(T T_i) const { return martensite_start(T_i, false, T(0)); }
 
-  // The cooling branch that a reversal at (T_i, eps_i) starts.
-  CoolingLoop<T> make_loop(T T_i, T eps_i) const {
+  // The cooling branch that a reversal at (T_i, eps_i) starts. on_major: eps_i is the major
+  // heating curve's fraction at T_i (a peak of a transforming heating), which eq 10 then uses
+  // instead of evaluating the curve again.
+  CoolingLoop<T> make_loop(T T_i, T eps_i, bool on_major = false) const {
     CoolingLoop<T> L;
     L.T_i = T_i;
     L.eps_i = eps_i;
@@ -94,7 +89,7 @@ class PhaseCurves {
       L.rise_rate = T(0);
     }
     // Clamp T_MSi to [T_MF, T_ii] (model.md): the flat stage cannot start above its own end.
-    L.T_MSi = clamp(martensite_start(T_i), T_MF_, L.T_ii);
+    L.T_MSi = clamp(martensite_start(T_i, on_major, eps_i), T_MF_, L.T_ii);
     const T cool_width = L.T_MSi - T_MF_;
     L.inv_cool = cool_width > T(0.001) ? T(1) / cool_width : T(0);
     L.inv_top = L.top > T(0) ? T(1) / L.top : T(0);
@@ -136,6 +131,15 @@ class PhaseCurves {
   T T_MF() const { return T_MF_; }
 
  private:
+  // Eqs 7-10; eh_i: eps_heat(T_i) when known.
+  T martensite_start(T T_i, bool known, T eh_i) const {
+    if (T_i > T_s_ && T_i < T_f_) {
+      const T nt = (T_i - T_s_) * inv_width_sf_;                                   // eq 9
+      const T n = ((((m_[5] * nt + m_[4]) * nt + m_[3]) * nt + m_[2]) * nt + m_[1]) * nt + m_[0];  // eq 8
+      return T_MSf_ + n * (T_MSs_ - T_MSf_);                                       // eq 7
+    }
+    return q_ * (known ? eh_i : eps_heat(T_i)) + e_;  // eq 10
+  }
   void set_knot(uint8_t k, double Ti, double span, double j) {
     knot_T_[k] = from_double<T>(Ti);
     knot_span_[k] = from_double<T>(span);
@@ -183,43 +187,33 @@ class Hysteresis {
     transformed_ = false;
     on_branch_ = true;
     loop_ = curves_->make_loop(T0, eps_);
+    peak_ready_ = false;
     T_left_ = T0;
   }
 
   // Advance along the temperature path to Tw; returns the new fraction. NaN is ignored.
-  T update(T Tw) {
-    if (!is_finite(Tw)) return eps_;
-    if (Tw > T_last_) {
-      if (!heating_) {  // valley: leave the cooling branch, remember where
-        heating_ = true;
-        transformed_ = false;
-        if (on_branch_) T_left_ = T_last_;
-        on_branch_ = false;
-      }
-      const T eh = curves_->eps_heat(Tw);  // eq 4: rise along the major heating curve
-      if (eh > eps_) {
-        eps_ = eh;
-        transformed_ = true;
-      }
-    } else if (Tw < T_last_) {
-      if (heating_) {  // peak
-        heating_ = false;
-        if (transformed_) {  // a new minor loop (eqs 5-11)
-          loop_ = curves_->make_loop(T_last_, eps_);
-          on_branch_ = true;
-        }  // else: return-point memory, resume the old branch below T_left_
-      }
-      if (!on_branch_ && Tw <= T_left_) on_branch_ = true;
-      if (on_branch_) eps_ = curves_->eps_cool(loop_, Tw);
-    }
-    T_last_ = Tw;
-    return eps_;
-  }
+  T update(T Tw) { return advance(Tw, false, T(0)); }
+
+  // The same, for a caller that already knows the fraction the branch it walks gives at Tw:
+  // eps_heat(Tw) on a heating, eps_cool(loop_for_cooling(), Tw) on a cooling (the inverse model
+  // computed Tw from that very fraction, eqs 15, 16): the curve is not evaluated a second time.
+  T update(T Tw, T eps_on_branch) { return advance(Tw, true, eps_on_branch); }
 
   // The loop a cooling that starts now would follow (what update() will build on the next
   // lower temperature). The inverse model needs it to invert the branch before walking it.
   CoolingLoop<T> loop_for_cooling() const {
-    if (heating_ && transformed_) return curves_->make_loop(T_last_, eps_);
+    if (heating_ && transformed_ && !peak_ready_) return curves_->make_loop(T_last_, eps_, true);
+    return loop_;
+  }
+
+  // The same loop, built once: the next update() that cools uses it instead of building it
+  // again (a reversal tick would otherwise build the loop twice). Only a transformed heating
+  // replaces loop_ here, and such a heating replaces it at its peak anyway.
+  const CoolingLoop<T>& prepare_cooling() {
+    if (heating_ && transformed_ && !peak_ready_) {
+      loop_ = curves_->make_loop(T_last_, eps_, true);
+      peak_ready_ = true;
+    }
     return loop_;
   }
 
@@ -230,12 +224,45 @@ class Hysteresis {
   const PhaseCurves<T>& curves() const { return *curves_; }
 
  private:
+  T advance(T Tw, bool known, T eps_known) {
+    if (!is_finite(Tw)) return eps_;
+    if (Tw > T_last_) {
+      if (!heating_) {  // valley: leave the cooling branch, remember where
+        heating_ = true;
+        transformed_ = false;
+        if (on_branch_) T_left_ = T_last_;
+        on_branch_ = false;
+      }
+      const T eh = known ? eps_known : curves_->eps_heat(Tw);  // eq 4: along the major curve
+      if (eh > eps_) {
+        eps_ = eh;
+        transformed_ = true;
+      }
+    } else if (Tw < T_last_) {
+      if (heating_) {  // peak
+        heating_ = false;
+        if (transformed_) {  // a new minor loop (eqs 5-11)
+          if (!peak_ready_) loop_ = curves_->make_loop(T_last_, eps_, true);
+          on_branch_ = true;
+        }  // else: return-point memory, resume the old branch below T_left_
+      }
+      if (!on_branch_ && Tw <= T_left_) on_branch_ = true;
+      if (on_branch_) eps_ = known ? eps_known : curves_->eps_cool(loop_, Tw);
+    } else {
+      return eps_;  // no move: a loop prepared for this point stays valid
+    }
+    T_last_ = Tw;
+    peak_ready_ = false;
+    return eps_;
+  }
+
   const PhaseCurves<T>* curves_;
   T eps_;
   T T_last_;
   bool heating_;      // the last move of the temperature was up
   bool transformed_;  // this heating has moved eps along the major curve
   bool on_branch_;    // cooling follows loop_ (else flat, waiting to fall to T_left_)
+  bool peak_ready_;   // loop_ already is the loop of a cooling from (T_last_, eps_)
   CoolingLoop<T> loop_;
   T T_left_;          // where the path left loop_'s branch
 };

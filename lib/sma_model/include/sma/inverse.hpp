@@ -91,22 +91,35 @@ class InverseModel {
     // k dT/deps / g ~ 0.01 inside the band; T stays within the branch's range), no loop
     // whose length depends on the data.
     const bool expands = kThermalExpansion && mech_.expands;
-    const T eps_d = mech_.fraction(u);  // eq 14 at ambient
+    T e = mech_.fraction(u);  // eq 14 at ambient
     T T_new;
+    // The memory walks the same branch from the same fraction e, so where T_new is the branch
+    // at e (not held), e is its fraction there: it gets it instead of evaluating the curve again.
+    bool on_curve;
     if (heating_) {
-      T_new = curves_.heat_temperature(eps_d);  // eq 15
+      T_new = curves_.heat_temperature(e);  // eq 15
       if (expands)
-        for (int i = 0; i < kExpansionSteps; ++i) T_new = curves_.heat_temperature(mech_.fraction(u, T_new));
+        for (int i = 0; i < kExpansionSteps; ++i) {
+          e = mech_.fraction(u, T_new);
+          T_new = curves_.heat_temperature(e);
+        }
       // Heating can only raise eps: below the current fraction, hold the temperature.
+      on_curve = T_new > T_d_;
       T_new = max(T_new, T_d_);
     } else {
-      const CoolingLoop<T> loop = memory_.loop_for_cooling();
-      T_new = curves_.cool_temperature(loop, eps_d);  // eq 16, this loop's T_MSi
+      const CoolingLoop<T>& loop = memory_.prepare_cooling();
+      T_new = curves_.cool_temperature(loop, e);  // eq 16, this loop's T_MSi
       if (expands)
-        for (int i = 0; i < kExpansionSteps; ++i) T_new = curves_.cool_temperature(loop, mech_.fraction(u, T_new));
+        for (int i = 0; i < kExpansionSteps; ++i) {
+          e = mech_.fraction(u, T_new);
+          T_new = curves_.cool_temperature(loop, e);
+        }
+      // Eq 16 inverts eq 11 only strictly inside the cooling stage.
+      on_curve = T_new < T_d_ && e > T(0) && e < loop.top && loop.inv_cool > T(0);
       T_new = min(T_new, T_d_);
     }
-    memory_.update(T_new);
+    if (on_curve) memory_.update(T_new, e);
+    else memory_.update(T_new);
     T_d_ = T_new;
     // The filtered path T_f and its exact slope.
     rate_ = (T_d_ - T_f_) * inv_tau_;

@@ -63,7 +63,15 @@ struct Thermal {
   T voltage_for(T Tw, T dTdt, T eps = T(0), T deps_dt = T(0)) const {
     T power = C * dTdt + heat_loss(Tw);
     if (!plain) power = power + L * deps_dt;
-    if (!(power > T(0))) return T(0);  // also catches NaN
+    return voltage_at(power, eps);
+  }
+  // Eq 17 with dT/dt = 0: the voltage that holds the wire at Tw (no C dT/dt term to evaluate).
+  T hold_voltage(T Tw, T eps = T(0)) const { return voltage_at(heat_loss(Tw), eps); }
+
+ private:
+  // The voltage that puts `power` into the wire at fraction eps; 0 for no power (or NaN).
+  T voltage_at(T power, T eps) const {
+    if (!(power > T(0))) return T(0);
     const T r = plain ? R : R * (T(1) + k_R * eps);
     return sqrt(r * power);
   }
