@@ -67,21 +67,10 @@ constexpr double kTrajMaxS = 3600.0;
 
 // Default gains: each mode tuned for its own best result on the paper's sine in rig-like
 // conditions (host/include/sma_host/tune.hpp; bench_tracking prints them).
-inline PidGains default_gains(Mode m) {
-  PidGains g;
-  if (m == Mode::Pid) {
-    g.kp = 12.5;
-    g.ki = 5.12;
-    g.kd = 0.25;
-  } else {
-    g.kp = 12.1;
-    g.ki = 3.13;
-    g.kd = 0.0;
-  }
-  g.d_filter_s = 0.05;
-  g.i_zone_mm = 0.05;
-  return g;
-}
+// (Constants, so that the console's initial State is a constant the AVR copies from flash.)
+constexpr PidGains kGainsPid = {12.5, 5.12, 0.25, 0.05, 0.05};
+constexpr PidGains kGainsFfpid = {12.1, 3.13, 0.0, 0.05, 0.05};
+inline PidGains default_gains(Mode m) { return m == Mode::Pid ? kGainsPid : kGainsFfpid; }
 
 // mode_name() as an SMA_F (flash) string.
 inline const char* mode_name_f(Mode m) {
@@ -108,13 +97,13 @@ struct State {
   Mode mode = Mode::FeedforwardPid;  // selected controller (never Off; `stop` clears heat)
   bool heat = false;                 // heater allowed: false at boot and after stop or a trip
   double volt = 0.0;                 // open-loop voltage
-  PidGains gains_pid = default_gains(Mode::Pid);
-  PidGains gains_ffpid = default_gains(Mode::FeedforwardPid);
+  PidGains gains_pid = kGainsPid;
+  PidGains gains_ffpid = kGainsFfpid;
   double tlim_C = 110.0;
   bool tele = false;
   RefKind run_kind = RefKind::Constant;  // the reference being run (reference())
   double pos_mm = 0.0;                    // its setpoint if constant
-  Reference traj = trajectory();          // trajectory points (edited by traj, run by traj run)
+  Reference traj = {RefKind::Trajectory};  // trajectory points (edited by traj, run by traj run)
   uint16_t run = 0;  // incremented at every (re)start of a reference: restart its clock
   bool training = false;  // the training signal is playing (train), open loop
 
@@ -155,12 +144,11 @@ struct Command {
   double a = 0.0, b = 0.0, c = 0.0;
   Mode mode = Mode::Off;
   bool on = false;
-  uint8_t key = 0;  // model commands: the key (sma/storage.hpp)
+  uint8_t key = 0;    // model commands: the key (sma/storage.hpp); help: the build's kModelCmd/kTrainCmd
+  uint8_t row = 0;    // its row of the command table (below)
+  uint8_t props = 0;  // the row's properties (Prop)
   // Would this command turn the heater on?
-  bool heats() const {
-    return op == Op::Pos || op == Op::Step || op == Op::Sine || op == Op::TrajRun || op == Op::Volt ||
-           op == Op::Train;
-  }
+  bool heats() const { return (props & 1u) != 0; }  // kHeats
 };
 
 // ---- a small bounded text buffer ---------------------------------------------------------------
@@ -419,11 +407,139 @@ inline Num parse_number(const char* tok, uint8_t len, double& out, bool single =
 
 }  // namespace detail
 
+// ---- the command table -------------------------------------------------------------------------
+// One row per operation: the command word, the keyword after it ("-": numbers follow instead),
+// the Op, a value (the Mode of `mode`, on/off of `tele`), properties and up to three numbers.
+// The parser, `help`, the error messages and the properties (Command::heats ...) come from it.
+// Rows of one word are consecutive; a keyword row comes before the word's "-" row.
+enum Prop : uint8_t {
+  kHeats = 1,         // turns the heater on (refused while a fault is latched)
+  kEndsTraining = 2,  // replaces a running training signal
+  kCold = 4,          // needs the heater off (writes the EEPROM)
+  kModelCmd = 8,      // exists where Limits::model (pbegin ...)
+  kTrainCmd = 16,     // exists where Limits::train
+  kOptional = 32,     // its number may be omitted
+  kKeyed = 64,        // a storage key comes first (pset, pget); its number has the key's range
+};
+// The numbers: name (in the errors) and range. Upper bound -1: the stroke (Limits::g_mm), -2:
+// Limits::v_max.
+enum Arg : uint8_t { kNoArg, kArgMm, kArgV, kArgKp, kArgKi, kArgKd, kArgDegC, kArgTs, kArgSlope, kArgValue };
+namespace detail {
+inline const char* arg_names() { return SMA_F("- mm V kp ki kd degC t_s slope value"); }
+static SMA_STORAGE_TABLE double kArgRange[][2] = {
+    {0, 0}, {0, -1}, {0, -2}, {0, 999}, {0, 999}, {0, 999}, {30, 150}, {0, kTrajMaxS}, {0.0001, 1}, {0, 0}};
+inline const char* command_words() {
+  return SMA_F("pos step sine traj traj traj mode mode mode mode volt gains tlim tele tele status stop help "
+               "train pbegin pset pget pcommit pabort pinfo");
+}
+inline const char* command_subs() { return SMA_F("- - - clear run - open pid ff ffpid - - - on off - - - - - - - - - -"); }
+struct CommandRow {
+  Op op;
+  uint8_t value;
+  uint8_t props;
+  uint8_t args[3];
+};
+constexpr uint8_t kEnds = kHeats | kEndsTraining;
+static SMA_STORAGE_TABLE CommandRow kCommandRows[] = {
+    {Op::Pos, 0, kEnds, {kArgMm, 0, 0}},
+    {Op::Step, 0, kEnds, {0, 0, 0}},
+    {Op::Sine, 0, kEnds, {0, 0, 0}},
+    {Op::TrajClear, 0, 0, {0, 0, 0}},
+    {Op::TrajRun, 0, kEnds, {0, 0, 0}},
+    {Op::TrajPoint, 0, 0, {kArgTs, kArgMm, 0}},
+    {Op::SetMode, static_cast<uint8_t>(Mode::OpenLoop), kEndsTraining, {0, 0, 0}},
+    {Op::SetMode, static_cast<uint8_t>(Mode::Pid), kEndsTraining, {0, 0, 0}},
+    {Op::SetMode, static_cast<uint8_t>(Mode::Feedforward), kEndsTraining, {0, 0, 0}},
+    {Op::SetMode, static_cast<uint8_t>(Mode::FeedforwardPid), kEndsTraining, {0, 0, 0}},
+    {Op::Volt, 0, kEnds, {kArgV, 0, 0}},
+    {Op::Gains, 0, 0, {kArgKp, kArgKi, kArgKd}},
+    {Op::Tlim, 0, 0, {kArgDegC, 0, 0}},
+    {Op::Tele, 1, 0, {0, 0, 0}},
+    {Op::Tele, 0, 0, {0, 0, 0}},
+    {Op::Status, 0, 0, {0, 0, 0}},
+    {Op::Stop, 0, kEndsTraining, {0, 0, 0}},
+    {Op::Help, 0, 0, {0, 0, 0}},
+    {Op::Train, 0, kHeats | kTrainCmd | kOptional, {kArgSlope, 0, 0}},
+    {Op::PBegin, 0, kModelCmd | kCold, {0, 0, 0}},
+    {Op::PSet, 0, kModelCmd | kCold | kKeyed, {kArgValue, 0, 0}},
+    {Op::PGet, 0, kModelCmd | kKeyed, {0, 0, 0}},
+    {Op::PCommit, 0, kModelCmd | kCold, {0, 0, 0}},
+    {Op::PAbort, 0, kModelCmd, {0, 0, 0}},
+    {Op::PInfo, 0, kModelCmd, {0, 0, 0}},
+};
+constexpr uint8_t kCommandCount = sizeof(kCommandRows) / sizeof(kCommandRows[0]);
+
+inline CommandRow command_row(uint8_t r) {
+  CommandRow row;
+#if defined(__AVR__)
+  memcpy_P(&row, &kCommandRows[r], sizeof(CommandRow));
+#else
+  row = kCommandRows[r];
+#endif
+  return row;
+}
+inline double arg_bound(uint8_t arg, uint8_t hi, const Limits& lim) {
+#if defined(__AVR__)
+  const double b = pgm_read_float(&kArgRange[arg][hi]);
+#else
+  const double b = kArgRange[arg][hi];
+#endif
+  return b == -1.0 ? lim.g_mm : b == -2.0 ? lim.v_max : b;
+}
+// Does row r exist in this build?
+inline bool row_exists(const CommandRow& row, const Limits& lim) {
+  return !((row.props & kModelCmd) && !lim.model) && !((row.props & kTrainCmd) && !lim.train);
+}
+// Word n of a flash list equals tok[0..len)?
+inline bool word_is(const char* list_f, uint8_t n, const char* tok, uint8_t len) {
+  struct Cmp {
+    const char* tok;
+    uint8_t len, k;
+    bool same;
+    void put(char c) {
+      same = same && k < len && tok[k] == c;
+      ++k;
+    }
+  } cmp = {tok, len, 0, true};
+  storage::detail::put_word(cmp, list_f, n);
+  return cmp.same && cmp.k == len;
+}
+inline bool same_word(uint8_t r1, uint8_t r2) {
+  struct Buf {
+    char t[8];
+    uint8_t n;
+    void put(char c) {
+      if (n < 8) t[n++] = c;
+    }
+  } b = {{0}, 0};
+  storage::detail::put_word(b, command_words(), r1);
+  return word_is(command_words(), r2, b.t, b.n);
+}
+inline bool has_sub(uint8_t r) { return !word_is(command_subs(), r, "-", 1); }
+}  // namespace detail
+
+// `help`: the words of the commands of this build, '|'-separated; a command that takes one
+// number shows its unit (pos mm).
+inline void put_help(Reply& reply, const Limits& lim) {
+  using namespace detail;
+  bool first = true;
+  for (uint8_t r = 0; r < kCommandCount; ++r) {
+    const CommandRow row = command_row(r);
+    if (!row_exists(row, lim) || (r > 0 && same_word(r, static_cast<uint8_t>(r - 1)))) continue;
+    if (!first) reply.put('|');
+    first = false;
+    storage::detail::put_word(reply, command_words(), r);
+    if (row.args[0] != kNoArg && row.args[1] == kNoArg && !(row.props & (kKeyed | kOptional)) && !has_sub(r)) {
+      reply.put(' ');
+      storage::detail::put_word(reply, arg_names(), row.args[0]);
+    }
+  }
+}
+
 // Parses one line (no newline) into `cmd`. On error returns false, writes `ERR <problem>` into
 // `reply` and leaves `cmd` untouched. On success returns true (reply untouched).
 inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& lim = Limits()) {
-  using detail::next_token;
-  using detail::token_is;
+  using namespace detail;
   // The LineBuffer never passes more than kLineMax chars; a caller that bypasses it gets the
   // same answer (and the 8-bit token lengths below stay exact).
   for (uint8_t n = 0; line[n] != 0; ++n) {
@@ -439,138 +555,81 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
   uint8_t len0 = 0;
   const char* t0 = next_token(p, len0);
   Command c;
-  const char* name = SMA_F("");
-  // Expected numeric arguments: count, and the range of each.
-  uint8_t nargs = 0;
-  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-  const char* what[3] = {nullptr, nullptr, nullptr};  // SMA_F names of the numbers
-
-  auto err = [&](const char* msg_f) {
+  if (len0 == 0) {
+    cmd = c;  // Op::Empty
+    return true;
+  }
+  uint8_t r = 0;
+  while (r < kCommandCount && !(row_exists(command_row(r), lim) && word_is(command_words(), r, t0, len0))) ++r;
+  if (r == kCommandCount) {
+    reply.clear();
+    reply.put_f(SMA_F("ERR unknown command '"));
+    reply.put_s(t0, len0 > 12 ? 12 : len0);
+    reply.put_f(SMA_F("' (try help)"));
+    return false;
+  }
+  const uint8_t first = r;
+  auto err_head = [&]() {
     reply.clear();
     reply.put_f(SMA_F("ERR "));
-    if (flash_char(name) != 0) {
-      reply.put_f(name);
-      reply.put_f(SMA_F(": "));
-    }
+    storage::detail::put_word(reply, command_words(), first);
+    reply.put_f(SMA_F(": "));
+  };
+  auto err = [&](const char* msg_f) {
+    err_head();
     reply.put_f(msg_f);
     return false;
   };
 
+  // The keyword: the row among the word's rows that names it, else the word's "-" row.
   uint8_t len = 0;
-  const char* tok = nullptr;
-  if (len0 == 0) {
-    c.op = Op::Empty;
-  } else if (token_is(t0, len0, SMA_F("pos"))) {
-    name = SMA_F("pos");
-    c.op = Op::Pos;
-    nargs = 1;
-    lo[0] = 0.0;
-    hi[0] = lim.g_mm;
-    what[0] = SMA_F("mm");
-  } else if (token_is(t0, len0, SMA_F("step"))) {
-    name = SMA_F("step");
-    c.op = Op::Step;
-  } else if (token_is(t0, len0, SMA_F("sine"))) {
-    name = SMA_F("sine");
-    c.op = Op::Sine;
-  } else if (token_is(t0, len0, SMA_F("traj"))) {
-    name = SMA_F("traj");
-    const char* save = p;
-    tok = next_token(p, len);
-    if (len == 0) return err(SMA_F("expected clear, run or <t_s> <mm>"));
-    if (token_is(tok, len, SMA_F("clear"))) {
-      c.op = Op::TrajClear;
-    } else if (token_is(tok, len, SMA_F("run"))) {
-      c.op = Op::TrajRun;
-    } else {
-      p = save;
-      c.op = Op::TrajPoint;
-      nargs = 2;
-      lo[0] = 0.0;
-      hi[0] = kTrajMaxS;
-      what[0] = SMA_F("t_s");
-      lo[1] = 0.0;
-      hi[1] = lim.g_mm;
-      what[1] = SMA_F("mm");
+  const char* save = p;
+  const char* tok = next_token(p, len);
+  uint8_t last = first;
+  while (last + 1 < kCommandCount && same_word(first, static_cast<uint8_t>(last + 1))) ++last;
+  if (last > first) {  // keywords: `mode open`, `tele on`, `traj clear` ...
+    r = first;
+    while (r <= last && has_sub(r) && !word_is(command_subs(), r, tok, len)) ++r;
+    if (r > last || (len == 0 && !has_sub(r))) {  // "expected a, b or <t_s> <mm>"
+      err_head();
+      reply.put_f(SMA_F("expected "));
+      for (uint8_t k = first; k <= last; ++k) {
+        if (k > first) reply.put_f(k == last ? SMA_F(" or ") : SMA_F(", "));
+        if (has_sub(k)) {
+          storage::detail::put_word(reply, command_subs(), k);
+          continue;
+        }
+        const CommandRow row = command_row(k);
+        for (uint8_t a = 0; a < 3 && row.args[a] != kNoArg; ++a) {
+          if (a > 0) reply.put(' ');
+          reply.put('<');
+          storage::detail::put_word(reply, arg_names(), row.args[a]);
+          reply.put('>');
+        }
+      }
+      return false;
     }
-  } else if (token_is(t0, len0, SMA_F("mode"))) {
-    name = SMA_F("mode");
-    c.op = Op::SetMode;
-    tok = next_token(p, len);
-    if (token_is(tok, len, SMA_F("open"))) c.mode = Mode::OpenLoop;
-    else if (token_is(tok, len, SMA_F("pid"))) c.mode = Mode::Pid;
-    else if (token_is(tok, len, SMA_F("ff"))) c.mode = Mode::Feedforward;
-    else if (token_is(tok, len, SMA_F("ffpid"))) c.mode = Mode::FeedforwardPid;
-    else return err(SMA_F("expected open, pid, ff or ffpid"));
-  } else if (token_is(t0, len0, SMA_F("volt"))) {
-    name = SMA_F("volt");
-    c.op = Op::Volt;
-    nargs = 1;
-    lo[0] = 0.0;
-    hi[0] = lim.v_max;
-    what[0] = SMA_F("V");
-  } else if (token_is(t0, len0, SMA_F("gains"))) {
-    name = SMA_F("gains");
-    c.op = Op::Gains;
-    nargs = 3;
-    for (uint8_t k = 0; k < 3; ++k) {
-      lo[k] = 0.0;
-      hi[k] = 999.0;
-    }
-    what[0] = SMA_F("kp");
-    what[1] = SMA_F("ki");
-    what[2] = SMA_F("kd");
-  } else if (token_is(t0, len0, SMA_F("tlim"))) {
-    name = SMA_F("tlim");
-    c.op = Op::Tlim;
-    nargs = 1;
-    lo[0] = 30.0;
-    hi[0] = 150.0;
-    what[0] = SMA_F("degC");
-  } else if (token_is(t0, len0, SMA_F("tele"))) {
-    name = SMA_F("tele");
-    c.op = Op::Tele;
-    tok = next_token(p, len);
-    if (token_is(tok, len, SMA_F("on"))) c.on = true;
-    else if (token_is(tok, len, SMA_F("off"))) c.on = false;
-    else return err(SMA_F("expected on or off"));
-  } else if (token_is(t0, len0, SMA_F("status"))) {
-    name = SMA_F("status");
-    c.op = Op::Status;
-  } else if (token_is(t0, len0, SMA_F("stop"))) {
-    name = SMA_F("stop");
-    c.op = Op::Stop;
-  } else if (token_is(t0, len0, SMA_F("help"))) {
-    name = SMA_F("help");
-    c.op = Op::Help;
-  } else if (lim.train && token_is(t0, len0, SMA_F("train"))) {
-    name = SMA_F("train");
-    c.op = Op::Train;
-    const char* save = p;
-    tok = next_token(p, len);
+    if (!has_sub(r)) p = save;  // numbers follow
+  } else {
     p = save;
-    if (len != 0) {  // optional slope
-      nargs = 1;
-      lo[0] = 0.0001;
-      hi[0] = 1.0;
-      what[0] = SMA_F("slope");
-    }
-  } else if (lim.model && token_is(t0, len0, SMA_F("pbegin"))) {
-    name = SMA_F("pbegin");
-    c.op = Op::PBegin;
-  } else if (lim.model && token_is(t0, len0, SMA_F("pcommit"))) {
-    name = SMA_F("pcommit");
-    c.op = Op::PCommit;
-  } else if (lim.model && token_is(t0, len0, SMA_F("pabort"))) {
-    name = SMA_F("pabort");
-    c.op = Op::PAbort;
-  } else if (lim.model && token_is(t0, len0, SMA_F("pinfo"))) {
-    name = SMA_F("pinfo");
-    c.op = Op::PInfo;
-  } else if (lim.model && (token_is(t0, len0, SMA_F("pset")) || token_is(t0, len0, SMA_F("pget")))) {
-    const bool set = t0[1] == 's';
-    name = set ? SMA_F("pset") : SMA_F("pget");
-    c.op = set ? Op::PSet : Op::PGet;
+  }
+  const CommandRow row = command_row(r);
+  c.op = row.op;
+  c.row = r;
+  c.props = row.props;
+  c.mode = static_cast<Mode>(row.value);
+  c.on = row.value != 0;
+
+  uint8_t nargs = 0;
+  while (nargs < 3 && row.args[nargs] != kNoArg) ++nargs;
+  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  for (uint8_t k = 0; k < nargs; ++k) {
+    lo[k] = arg_bound(row.args[k], 0, lim);
+    hi[k] = arg_bound(row.args[k], 1, lim);
+  }
+  // (lim.model first: a build without the model commands drops the keys' code.)
+  const bool keyed = lim.model && (row.props & kKeyed) != 0;
+  if (keyed) {
     tok = next_token(p, len);
     if (len == 0) return err(SMA_F("missing <key>"));
     c.key = storage::key_index(tok, len);
@@ -580,40 +639,39 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
       reply.put('\'');
       return false;
     }
-    if (set) {  // one number in the key's range, errors named by the key (below)
-      nargs = 1;
-      storage::key_range(c.key, lo[0], hi[0]);
-    }
-  } else {
-    reply.clear();
-    reply.put_f(SMA_F("ERR unknown command '"));
-    reply.put_s(t0, len0 > 12 ? 12 : len0);
-    reply.put_f(SMA_F("' (try help)"));
-    return false;
+    if (nargs) storage::key_range(c.key, lo[0], hi[0]);
+  }
+  if (row.props & kOptional) {
+    save = p;
+    next_token(p, len);
+    p = save;
+    if (len == 0) nargs = 0;
   }
 
   double v[3] = {0, 0, 0};
   for (uint8_t k = 0; k < nargs; ++k) {
     tok = next_token(p, len);
     // pset: `ERR <key>: value ...`; others: `ERR <command>: <what> ...`
-    const bool keyed = c.op == Op::PSet;
-    const detail::Num r = len == 0 ? detail::Num::Bad : detail::parse_number(tok, len, v[k], lim.single);
+    const Num n = len == 0 ? Num::Bad : parse_number(tok, len, v[k], lim.single);
     const bool in_range = v[k] >= lo[k] && v[k] <= hi[k];
     // The loop count must be a whole number; cast only once it is known to fit a uint8_t
     // (converting an out-of-range double is undefined behaviour: found by fuzz_console).
     const bool integer = !keyed || c.key != storage::kKeyLoops || !in_range ||
                          v[k] == static_cast<double>(static_cast<uint8_t>(v[k]));
-    if (len == 0 || r != detail::Num::Ok || !in_range || !integer) {
-      reply.clear();
-      reply.put_f(SMA_F("ERR "));
-      if (keyed) storage::put_key_name(reply, c.key);
-      else reply.put_f(name);
-      reply.put_f(SMA_F(": "));
+    if (len == 0 || n != Num::Ok || !in_range || !integer) {
+      if (keyed) {
+        reply.clear();
+        reply.put_f(SMA_F("ERR "));
+        storage::put_key_name(reply, c.key);
+        reply.put_f(SMA_F(": "));
+      } else {
+        err_head();
+      }
       if (len == 0) reply.put_f(SMA_F("missing number <"));
-      reply.put_f(keyed ? SMA_F("value") : what[k]);
+      storage::detail::put_word(reply, arg_names(), row.args[k]);
       if (len == 0) {
         reply.put('>');
-      } else if (r == detail::Num::Bad) {
+      } else if (n == Num::Bad) {
         reply.put_f(SMA_F(" is not a number: '"));
         reply.put_s(tok, len > 12 ? 12 : len);
         reply.put('\'');
@@ -637,6 +695,7 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
   c.a = v[0];
   c.b = v[1];
   c.c = v[2];
+  if (c.op == Op::Help) c.key = static_cast<uint8_t>((lim.model ? kModelCmd : 0) | (lim.train ? kTrainCmd : 0));
   cmd = c;
   return true;
 }
@@ -655,9 +714,9 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
     return false;
   }
   if (is_model_op(c.op)) {
-    if (s.heat && (c.op == Op::PBegin || c.op == Op::PSet || c.op == Op::PCommit)) {
+    if (s.heat && (c.props & kCold)) {
       reply.put_f(SMA_F("ERR "));
-      reply.put_f(c.op == Op::PBegin ? SMA_F("pbegin") : c.op == Op::PSet ? SMA_F("pset") : SMA_F("pcommit"));
+      storage::detail::put_word(reply, detail::command_words(), c.row);
       reply.put_f(SMA_F(": heater on, send stop"));
       return false;
     }
@@ -688,9 +747,7 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
     default: break;
   }
   reply.put_f(SMA_F("OK "));
-  if (c.op == Op::Pos || c.op == Op::Step || c.op == Op::Sine || c.op == Op::TrajRun ||
-      c.op == Op::Volt || c.op == Op::SetMode || c.op == Op::Stop)
-    s.training = false;  // anything else that drives the heater ends a training run
+  if (c.props & kEndsTraining) s.training = false;
   switch (c.op) {
     case Op::Train:
       s.training = true;
@@ -774,9 +831,12 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
       reply.put_f(SMA_F("stop"));
       break;
     case Op::Help:
-      // (fits kReplyMax: the full table is in this header and the README)
-      reply.put_f(SMA_F("pos mm|step|sine|traj|mode|volt V|gains|tlim|tele|status|stop|train|"
-                        "pbegin|pset|pget|pcommit|pabort|pinfo"));
+      {
+        Limits lim;
+        lim.model = (c.key & kModelCmd) != 0;
+        lim.train = (c.key & kTrainCmd) != 0;
+        put_help(reply, lim);
+      }
       break;
     default: break;
   }
