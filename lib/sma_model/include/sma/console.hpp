@@ -70,7 +70,18 @@ constexpr double kTrajMaxS = 3600.0;
 // (Constants, so that the console's initial State is a constant the AVR copies from flash.)
 constexpr PidGains kGainsPid = {12.5, 5.12, 0.25, 0.05, 0.05};
 constexpr PidGains kGainsFfpid = {12.1, 3.13, 0.0, 0.05, 0.05};
-inline PidGains default_gains(Mode m) { return m == Mode::Pid ? kGainsPid : kGainsFfpid; }
+// (Field by field into the return value: a copy of the whole constant would add a temporary to
+// Board::construct's frame, the deepest of the firmware.)
+inline PidGains default_gains(Mode m) {
+  const PidGains& k = m == Mode::Pid ? kGainsPid : kGainsFfpid;
+  PidGains g;
+  g.kp = k.kp;
+  g.ki = k.ki;
+  g.kd = k.kd;
+  g.d_filter_s = k.d_filter_s;
+  g.i_zone_mm = k.i_zone_mm;
+  return g;
+}
 
 // mode_name() as an SMA_F (flash) string.
 inline const char* mode_name_f(Mode m) {
@@ -622,11 +633,7 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
 
   uint8_t nargs = 0;
   while (nargs < 3 && row.args[nargs] != kNoArg) ++nargs;
-  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-  for (uint8_t k = 0; k < nargs; ++k) {
-    lo[k] = arg_bound(row.args[k], 0, lim);
-    hi[k] = arg_bound(row.args[k], 1, lim);
-  }
+  double klo = 0.0, khi = 0.0;  // the key's range (pset)
   // (lim.model first: a build without the model commands drops the keys' code.)
   const bool keyed = lim.model && (row.props & kKeyed) != 0;
   if (keyed) {
@@ -639,7 +646,7 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
       reply.put('\'');
       return false;
     }
-    if (nargs) storage::key_range(c.key, lo[0], hi[0]);
+    if (nargs) storage::key_range(c.key, klo, khi);
   }
   if (row.props & kOptional) {
     save = p;
@@ -652,8 +659,10 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
   for (uint8_t k = 0; k < nargs; ++k) {
     tok = next_token(p, len);
     // pset: `ERR <key>: value ...`; others: `ERR <command>: <what> ...`
+    const double lo = keyed ? klo : arg_bound(row.args[k], 0, lim);
+    const double hi = keyed ? khi : arg_bound(row.args[k], 1, lim);
     const Num n = len == 0 ? Num::Bad : parse_number(tok, len, v[k], lim.single);
-    const bool in_range = v[k] >= lo[k] && v[k] <= hi[k];
+    const bool in_range = v[k] >= lo && v[k] <= hi;
     // The loop count must be a whole number; cast only once it is known to fit a uint8_t
     // (converting an out-of-range double is undefined behaviour: found by fuzz_console).
     const bool integer = !keyed || c.key != storage::kKeyLoops || !in_range ||
@@ -678,13 +687,13 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
       } else {
         reply.put_f(integer ? SMA_F(" out of range ") : SMA_F(" must be an integer "));
         if (keyed) {
-          reply.put_num(lo[k]);
+          reply.put_num(lo);
           reply.put_f(SMA_F(".."));
-          reply.put_num(hi[k]);
+          reply.put_num(hi);
         } else {
-          reply.put_fixed(lo[k], 3);
+          reply.put_fixed(lo, 3);
           reply.put_f(SMA_F(".."));
-          reply.put_fixed(hi[k], 3);
+          reply.put_fixed(hi, 3);
         }
       }
       return false;
