@@ -50,6 +50,7 @@
 #ifndef SMA_CONSOLE_HPP
 #define SMA_CONSOLE_HPP
 
+#include <stddef.h>
 #include <stdint.h>
 #include "controller.hpp"
 #include "pid.hpp"
@@ -418,6 +419,17 @@ inline Num parse_number(const char* tok, uint8_t len, double& out, bool single =
 
 }  // namespace detail
 
+// The reply to a bad line from the LineBuffer.
+inline void line_error(LineBuffer::Status st, Reply& reply) {
+  reply.clear();
+  if (st == LineBuffer::Status::TooLong) {
+    reply.put_f(SMA_F("ERR line too long (max "));
+    reply.put_u(kLineMax);
+    reply.put_f(SMA_F(" chars)"));
+  }
+  else reply.put_f(SMA_F("ERR line has a NUL or non-ASCII byte"));
+}
+
 // ---- the command table -------------------------------------------------------------------------
 // One row per operation: the command word, the keyword after it ("-": numbers follow instead),
 // the Op, a value (the Mode of `mode`, on/off of `tele`), properties and up to three numbers.
@@ -555,10 +567,7 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
   // same answer (and the 8-bit token lengths below stay exact).
   for (uint8_t n = 0; line[n] != 0; ++n) {
     if (n >= kLineMax) {
-      reply.clear();
-      reply.put_f(SMA_F("ERR line too long (max "));
-      reply.put_u(kLineMax);
-      reply.put_f(SMA_F(" chars)"));
+      line_error(LineBuffer::Status::TooLong, reply);
       return false;
     }
   }
@@ -722,48 +731,49 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
     reply.put_f(SMA_F(": send stop"));
     return false;
   }
+  const char* why = nullptr;  // refused: `ERR <command>: <why>`
   if (is_model_op(c.op)) {
-    if (s.heat && (c.props & kCold)) {
-      reply.put_f(SMA_F("ERR "));
-      storage::detail::put_word(reply, detail::command_words(), c.row);
-      reply.put_f(SMA_F(": heater on, send stop"));
-      return false;
-    }
-    return true;  // the firmware runs it (model_command) and writes the reply
-  }
-  switch (c.op) {
-    case Op::Empty: return true;  // nothing, no reply
-    case Op::TrajPoint: {
-      if (s.traj.n_points >= kMaxPoints) {
-        reply.put_f(SMA_F("ERR traj: full (16 points)"));
-        return false;
-      }
-      if (s.traj.n_points > 0 && !(c.a > s.traj.point_t[s.traj.n_points - 1])) {
-        reply.put_f(SMA_F("ERR traj: t_s must increase"));
-        return false;
-      }
+    if (!(s.heat && (c.props & kCold))) return true;  // the firmware runs it (model_command) and replies
+    why = SMA_F("heater on, send stop");
+  } else if (c.op == Op::Empty) {
+    return true;  // nothing, no reply
+  } else if (c.op == Op::TrajPoint) {
+    if (s.traj.n_points >= kMaxPoints) {
+      why = SMA_F("full (16 points)");
+    } else if (s.traj.n_points > 0 && !(c.a > s.traj.point_t[s.traj.n_points - 1])) {
+      why = SMA_F("t_s must increase");
+    } else {
       s.traj.add_point(c.a, c.b);
       reply.put_f(SMA_F("OK traj point "));
       reply.put_u(s.traj.n_points);
       return true;
     }
-    case Op::TrajRun:
-      if (s.traj.n_points == 0) {
-        reply.put_f(SMA_F("ERR traj: no points"));
-        return false;
-      }
-      break;
-    default: break;
+  } else if (c.op == Op::TrajRun && s.traj.n_points == 0) {
+    why = SMA_F("no points");
+  }
+  if (why) {
+    reply.put_f(SMA_F("ERR "));
+    storage::detail::put_word(reply, detail::command_words(), c.row);
+    reply.put_f(SMA_F(": "));
+    reply.put_f(why);
+    return false;
   }
   reply.put_f(SMA_F("OK "));
   if (c.props & kEndsTraining) s.training = false;
+  // `OK <command> [<keyword>]` from the table (mode pid, tele on, traj run ...), then the values.
+  if (c.op != Op::Help) {
+    storage::detail::put_word(reply, detail::command_words(), c.row);
+    if (detail::has_sub(c.row)) {
+      reply.put(' ');
+      storage::detail::put_word(reply, detail::command_subs(), c.row);
+    }
+  }
   switch (c.op) {
     case Op::Train:
       s.training = true;
       s.mode = Mode::OpenLoop;
       s.volt = 0.0;
       s.heat = true;
-      reply.put_f(SMA_F("train"));
       break;
     case Op::Pos:
     case Op::Step:
@@ -779,35 +789,28 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
       if (s.mode == Mode::OpenLoop) s.mode = Mode::FeedforwardPid;  // a reference needs a loop
       s.heat = true;
       ++s.run;
-      if (c.op == Op::Pos) {
-        reply.put_f(SMA_F("pos "));
-        reply.put_fixed(c.a, 4);
-      } else {
-        reply.put_f(c.op == Op::Step ? SMA_F("step") : c.op == Op::Sine ? SMA_F("sine") : SMA_F("traj run"));
-        if (c.op == Op::TrajRun) {
-          reply.put(' ');
-          reply.put_fixed(s.traj.duration(), 2);
-          reply.put_f(SMA_F(" s"));
-        }
-      }
       reply.put(' ');
+      if (c.op == Op::Pos) {
+        reply.put_fixed(c.a, 4);
+        reply.put(' ');
+      } else if (c.op == Op::TrajRun) {
+        reply.put_fixed(s.traj.duration(), 2);
+        reply.put_f(SMA_F(" s "));
+      }
       reply.put_f(mode_name_f(s.mode));
       break;
     case Op::TrajClear:
       s.traj.n_points = 0;  // (no Reference temporary: 185 B of stack on AVR)
-      reply.put_f(SMA_F("traj clear"));
       break;
     case Op::SetMode:
       s.mode = c.mode;
-      reply.put_f(SMA_F("mode "));
-      reply.put_f(mode_name_f(s.mode));
       if (!s.heat) reply.put_f(SMA_F(" (heater off)"));
       break;
     case Op::Volt:
       s.volt = c.a;
       s.mode = Mode::OpenLoop;
       s.heat = true;
-      reply.put_f(SMA_F("volt "));
+      reply.put(' ');
       reply.put_fixed(c.a, 4);
       reply.put_f(SMA_F(" open"));
       break;
@@ -816,29 +819,20 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
       g.kp = c.a;
       g.ki = c.b;
       g.kd = c.c;
-      reply.put_f(SMA_F("gains "));
-      reply.put_f(s.mode == Mode::Pid ? SMA_F("pid ") : SMA_F("ffpid "));
-      reply.put_fixed(c.a, 4);
-      reply.put(' ');
-      reply.put_fixed(c.b, 4);
-      reply.put(' ');
-      reply.put_fixed(c.c, 4);
+      reply.put_f(s.mode == Mode::Pid ? SMA_F(" pid") : SMA_F(" ffpid"));
+      for (uint8_t k = 0; k < 3; ++k) {
+        reply.put(' ');
+        reply.put_fixed(k == 0 ? c.a : k == 1 ? c.b : c.c, 4);
+      }
       break;
     }
     case Op::Tlim:
       s.tlim_C = c.a;
-      reply.put_f(SMA_F("tlim "));
+      reply.put(' ');
       reply.put_fixed(c.a, 1);
       break;
-    case Op::Tele:
-      s.tele = c.on;
-      reply.put_f(c.on ? SMA_F("tele on") : SMA_F("tele off"));
-      break;
-    case Op::Status: reply.put_f(SMA_F("status")); break;
-    case Op::Stop:
-      s.heat = false;
-      reply.put_f(SMA_F("stop"));
-      break;
+    case Op::Tele: s.tele = c.on; break;
+    case Op::Stop: s.heat = false; break;
     case Op::Help:
       {
         Limits lim;
@@ -861,26 +855,18 @@ inline bool execute(const char* line, State& s, Fault fault, Reply& reply,
   return apply(c, s, fault, reply);
 }
 
-// The reply to a bad line from the LineBuffer.
-inline void line_error(LineBuffer::Status st, Reply& reply) {
-  reply.clear();
-  if (st == LineBuffer::Status::TooLong) {
-    reply.put_f(SMA_F("ERR line too long (max "));
-    reply.put_u(kLineMax);
-    reply.put_f(SMA_F(" chars)"));
-  }
-  else reply.put_f(SMA_F("ERR line has a NUL or non-ASCII byte"));
-}
-
 // Live values for `status`.
 struct Live {
   uint32_t ticks = 0;     // since boot
+  // (t_ref_s .. temp_C consecutive: status_line() reads them in a loop)
   double t_ref_s = 0.0;   // time in the running reference
   double d_mm = 0.0, ref_mm = 0.0, v = 0.0, temp_C = 0.0;
   Fault fault = Fault::None;
   uint16_t dropped = 0;   // replies or rows dropped for lack of serial buffer
   uint16_t overruns = 0;  // ticks lost because the previous one was still running
 };
+
+static_assert(offsetof(Live, temp_C) == offsetof(Live, t_ref_s) + 4 * sizeof(double), "Live: t_ref_s..temp_C consecutive");
 
 // `OK status <mode> <ref kind> t=<s> d=<mm> r=<mm> V=<V> T=<C> tlim=<C> fault=<name> drop=<n> ovr=<n>`
 inline void status_line(Reply& r, const State& s, const Live& l) {
@@ -894,18 +880,14 @@ inline void status_line(Reply& r, const State& s, const Live& l) {
     case RefKind::Trajectory: r.put_f(SMA_F("traj")); break;
     default: r.put_f(s.training ? SMA_F("train") : SMA_F("pos")); break;
   }
-  r.put_f(SMA_F(" t="));
-  r.put_fixed(l.t_ref_s, 2);
-  r.put_f(SMA_F(" d="));
-  r.put_fixed(l.d_mm, 4);
-  r.put_f(SMA_F(" r="));
-  r.put_fixed(l.ref_mm, 4);
-  r.put_f(SMA_F(" V="));
-  r.put_fixed(l.v, 3);
-  r.put_f(SMA_F(" T="));
-  r.put_fixed(l.temp_C, 1);
-  r.put_f(SMA_F(" tlim="));
-  r.put_fixed(s.tlim_C, 0);
+  // t d r V T: Live's consecutive values t_ref_s .. temp_C, with 2 4 4 3 1 decimals; then tlim.
+  const double* value = &l.t_ref_s;
+  for (uint8_t k = 0; k < 6; ++k) {
+    r.put(' ');
+    storage::detail::put_word(r, SMA_F("t d r V T tlim"), k);
+    r.put('=');
+    r.put_fixed(k < 5 ? value[k] : s.tlim_C, static_cast<uint8_t>(flash_char(SMA_F("244310") + k) - '0'));
+  }
   r.put_f(SMA_F(" fault="));
   r.put_f(fault_name(l.fault));
   r.put_f(SMA_F(" drop="));
