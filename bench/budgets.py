@@ -66,7 +66,7 @@ def main():
     fw = os.path.join(a.build, "firmware")
     vrig = os.path.join(a.build, "tools", "vrig", "vrig")
     rows = []
-    for name in ("sma_firmware", "sma_firmware_train", "sma_firmware_fixed"):
+    for name in ("sma_firmware", "sma_firmware_fixed"):
         elf = os.path.join(fw, name + ".elf")
         if not os.path.isfile(elf):
             continue

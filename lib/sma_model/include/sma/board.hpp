@@ -66,7 +66,10 @@ class Board {
   typedef ReferenceGen<T> Gen;
   typedef console::LineBuffer::Status LineStatus;
 
-  explicit Board(Hw hw = Hw()) : store_(hw), safety_(safety_config()) { state_.tlim_C = Rig::t_limit_C(); }
+  explicit Board(Hw hw = Hw()) : store_(hw), safety_(safety_config()) {
+    initial_state(&state_.s);
+    state_.s.tlim_C = Rig::t_limit_C();
+  }
   Board(const Board&) = delete;
   Board& operator=(const Board&) = delete;
 
@@ -75,10 +78,10 @@ class Board {
   void boot(bool watchdog_reset, const char* banner_f) {
     build_models();
     start_reference();
-    live_.temp_C = to_double(ctl().wire_temperature());
+    live_.x.temp_C = to_double(ctl().wire_temperature());
     safety_.boot(watchdog_reset);
-    reply_.clear();
-    reply_.put_f(banner_f);
+    reply_.x.clear();
+    reply_.x.put_f(banner_f);
     send();
     if (watchdog_reset) announce_fault();
   }
@@ -88,45 +91,45 @@ class Board {
   // calls handle_line() when it has the time (the slowest reply takes ~2 ms on the Uno).
   bool rx(char c) {
     safety_.on_rx();
-    const LineStatus st = line_.push(c);
+    const LineStatus st = line_.x.push(c);
     if (st == LineStatus::Pending) return false;
-    waiting_ = st;
+    v_.x.waiting_ = st;
     return true;
   }
-  bool line_waiting() const { return waiting_ != LineStatus::Pending; }
+  bool line_waiting() const { return v_.x.waiting_ != LineStatus::Pending; }
 
   SMA_NOINLINE void handle_line() {
-    const LineStatus st = waiting_;
-    waiting_ = LineStatus::Pending;
+    const LineStatus st = v_.x.waiting_;
+    v_.x.waiting_ = LineStatus::Pending;
     if (st == LineStatus::Line) {
       console::Command c;
-      const bool tele_before = state_.tele;
-      if (console::execute(line_.line(), state_, safety_.fault(), reply_, limits(), &c)) {
-        if (c.op == console::Op::Status) console::status_line(reply_, state_, live_);
+      const bool tele_before = state_.s.tele;
+      if (console::execute(line_.x.line(), state_.s, safety_.fault(), reply_.x, limits(), &c)) {
+        if (c.op == console::Op::Status) console::status_line(reply_.x, state_.s, live_.x);
         if (Rig::model() && console::is_model_op(c.op)) {  // run_model_op() replies
-          model_op_ = c.op;
-          model_key_ = c.key;
-          model_a_ = static_cast<float>(c.a);
+          v_.x.model_op_ = c.op;
+          v_.x.model_key_ = c.key;
+          v_.x.model_a_ = static_cast<float>(c.a);
           return;
         }
         apply(c, tele_before);
       }
     } else if (st != LineStatus::Pending) {
-      console::line_error(st, reply_);
+      console::line_error(st, reply_.x);
     }
     send();
   }
 
   // ---- model commands: run at the top of the caller's stack -------------------------------------
-  bool model_pending() const { return Rig::model() && model_op_ != console::Op::Empty; }
+  bool model_pending() const { return Rig::model() && v_.x.model_op_ != console::Op::Empty; }
   // Runs the pending model command. True when it wrote the EEPROM (pbegin, pset, pcommit: up to
   // seconds on the AVR, heater off): the caller's tick count must catch up (set_ticks()).
   SMA_NOINLINE bool run_model_op() {
     console::Command c;
-    c.op = model_op_;
-    c.key = model_key_;
-    c.a = model_a_;
-    model_op_ = console::Op::Empty;
+    c.op = v_.x.model_op_;
+    c.key = v_.x.model_key_;
+    c.a = v_.x.model_a_;
+    v_.x.model_op_ = console::Op::Empty;
     const bool write = c.op == console::Op::PBegin || c.op == console::Op::PCommit;
     if (write) model_write(c);
     else model_read(c);
@@ -146,16 +149,16 @@ class Board {
     // The position the controller acts on: calibration undone, lag and delay compensated.
     const T d = Rig::compensate() ? sensor().correct(from_double<T>(mm), ctl().wire_temperature())
                                   : from_double<T>(mm);
-    last_d_ = d;
+    v_.x.last_d_ = d;
 
-    const uint32_t k = ticks_ - run_start_;
+    const uint32_t k = v_.x.ticks_ - v_.x.run_start_;
     const float t_ref = static_cast<float>(k) * static_cast<float>(1.0 / Rig::tick_hz());
     T ref = T(0);
-    if (Rig::train() && training_) {  // the training signal, open loop (the latch still applies)
+    if (Rig::train() && v_.x.training_) {  // the training signal, open loop (the latch still applies)
       if (k >= gen_.train.end_ticks) {
-        if (state_.training) train_done_ = true;
-        state_.training = false;
-        state_.heat = false;
+        if (state_.s.training) v_.x.train_done_ = true;
+        state_.s.training = false;
+        state_.s.heat = false;
         ctl().set_mode(Mode::Off, d);
       } else {
         ctl().set_voltage(from_double<T>(training_voltage(t_ref)));
@@ -171,84 +174,84 @@ class Board {
     in.measured_mm = mm;
     in.wire_temp_C = static_cast<float>(to_double(ctl().wire_temperature()));
     in.command_v = static_cast<float>(to_double(v_cmd));
-    in.heating = state_.heat;
+    in.heating = state_.s.heat;
     const float v = static_cast<float>(safety_.gate(in));
-    if (safety_.tripped() && state_.heat) {
-      fault_due_ = true;
-      state_.heat = false;
-      state_.training = false;
+    if (safety_.tripped() && state_.s.heat) {
+      v_.x.fault_due_ = true;
+      state_.s.heat = false;
+      state_.s.training = false;
       ctl().set_mode(Mode::Off, d);
     }
-    counts_ = pwm_counts(v);
+    v_.x.counts_ = pwm_counts(v);
 
-    live_.ticks = ticks_;
-    live_.t_ref_s = t_ref;
-    live_.d_mm = mm;
-    live_.ref_mm = static_cast<float>(to_double(ref));
-    live_.v = v;
-    live_.temp_C = in.wire_temp_C;
-    live_.fault = safety_.fault();
-    return counts_;
+    live_.x.ticks = v_.x.ticks_;
+    live_.x.t_ref_s = t_ref;
+    live_.x.d_mm = mm;
+    live_.x.ref_mm = static_cast<float>(to_double(ref));
+    live_.x.v = v;
+    live_.x.temp_C = in.wire_temp_C;
+    live_.x.fault = safety_.fault();
+    return v_.x.counts_;
   }
 
   // After control() (and the PWM written): the tick's telemetry row and fault announcement.
   SMA_NOINLINE void report() {
-    if (state_.tele) {
-      if (header_due_) {
-        reply_.clear();
-        reply_.put_f(console::telemetry_header());
+    if (state_.s.tele) {
+      if (v_.x.header_due_) {
+        reply_.x.clear();
+        reply_.x.put_f(console::telemetry_header());
         send();
-        header_due_ = false;
+        v_.x.header_due_ = false;
       }
-      console::telemetry_row(reply_, ticks_, static_cast<uint16_t>(Rig::tick_hz()), live_.v, live_.d_mm,
-                             live_.ref_mm, static_cast<float>(counts_) / static_cast<float>(Rig::pwm_top() + 1UL));
+      console::telemetry_row(reply_.x, v_.x.ticks_, static_cast<uint16_t>(Rig::tick_hz()), live_.x.v, live_.x.d_mm,
+                             live_.x.ref_mm, static_cast<float>(v_.x.counts_) / static_cast<float>(Rig::pwm_top() + 1UL));
       send();
     }
-    ++ticks_;
-    if (fault_due_) announce_fault();
+    ++v_.x.ticks_;
+    if (v_.x.fault_due_) announce_fault();
   }
 
   // Outside the tick: a training run that ended (its storage back to a generator, the line).
   void poll() {
     if (!Rig::train()) return;
-    if (training_ && !state_.training) {
-      training_ = false;
+    if (v_.x.training_ && !state_.s.training) {
+      v_.x.training_ = false;
       start_reference();
     }
-    if (train_done_) {
-      train_done_ = false;
-      reply_.clear();
-      reply_.put_f(SMA_F("# train done: heater off"));
+    if (v_.x.train_done_) {
+      v_.x.train_done_ = false;
+      reply_.x.clear();
+      reply_.x.put_f(SMA_F("# train done: heater off"));
       send();
     }
   }
 
   // ---- ticks -------------------------------------------------------------------------------------
-  uint32_t ticks() const { return ticks_; }
+  uint32_t ticks() const { return v_.x.ticks_; }
   // The caller's timer raised tick `raised` while the previous one ran too long: counted (status
   // ovr=) and skipped to.
   void overrun_to(uint32_t raised) {
-    if (live_.overruns < 0xFFFFu) ++live_.overruns;
-    ticks_ = raised;
+    if (live_.x.overruns < 0xFFFFu) ++live_.x.overruns;
+    v_.x.ticks_ = raised;
   }
   // After a long EEPROM operation (heater off meanwhile): the ticks it blocked are not overruns.
-  void set_ticks(uint32_t t) { ticks_ = t; }
+  void set_ticks(uint32_t t) { v_.x.ticks_ = t; }
 
   // ---- read access (tests, the host) -------------------------------------------------------------
-  const console::State& state() const { return state_; }
+  const console::State& state() const { return state_.s; }
   const Safety& safety() const { return safety_; }
-  const console::Live& live() const { return live_; }
+  const console::Live& live() const { return live_.x; }
   const Ctl& controller() const { return ctl(); }
   console::Limits limits() const {
     console::Limits lim;
-    lim.g_mm = g_mm_;
+    lim.g_mm = v_.x.g_mm_;
     lim.v_max = Rig::v_max();
     lim.model = Rig::model();
     lim.train = Rig::train();
     lim.single = true;
     return lim;
   }
-  bool training() const { return training_; }
+  bool training() const { return v_.x.training_; }
   storage::Store<Hw>& store() { return store_; }
 
   static SafetyConfig safety_config() {
@@ -294,6 +297,19 @@ class Board {
     TrainingPlan plan;
     uint32_t end_ticks;  // its length in ticks
   };
+  // A member whose initial value is all zero bytes (Live, LineBuffer, Reply: every default is 0),
+  // set by one memset instead of a store per field (AVR: ~4 B of flash per byte of the board).
+  template <class X>
+  union Zeroed {
+    Zeroed() { memset(static_cast<void*>(&x), 0, sizeof(X)); }
+    ~Zeroed() {}
+    X x;
+  };
+  union StateStore {  // constructed by initial_state()
+    StateStore() {}
+    ~StateStore() {}
+    console::State s;
+  };
   union GenStore {  // the generator, or the Params while the models are built, or a training plan
     GenStore() {}
     ~GenStore() {}
@@ -308,8 +324,8 @@ class Board {
   Gen& gen() { return gen_.gen; }
 
   void send() {
-    if (reply_.len && !store_.eeprom().line(reply_.text, reply_.len) && live_.dropped < 0xFFFFu)
-      ++live_.dropped;
+    if (reply_.x.len && !store_.eeprom().line(reply_.x.text, reply_.x.len) && live_.x.dropped < 0xFFFFu)
+      ++live_.x.dropped;
   }
 
   // The one place the models are constructed (the controller's constructor is large: inlined
@@ -320,7 +336,7 @@ class Board {
     new (&models_.m.ctl) Ctl(p, fx, controller_config());
     if (Rig::compensate())
       new (&models_.m.sensor) SensorPredictor<T>(ctl().inverse().curves(), p, fx, 1.0 / Rig::tick_hz());
-    g_mm_ = static_cast<float>(p.g < Rig::stroke_mm() ? p.g : Rig::stroke_mm());
+    v_.x.g_mm_ = static_cast<float>(p.g < Rig::stroke_mm() ? p.g : Rig::stroke_mm());
     store_.eeprom().irq_restore(s);
   }
 
@@ -346,6 +362,17 @@ class Board {
   static SMA_NOINLINE void paper_params(Params* p) { new (p) Params(); }
 #endif
 
+  // The console's initial state: on AVR a copy of a constant in flash (constructed in place, its
+  // ~250 bytes of defaults cost a store each: ~1 KB of the static constructor).
+#if defined(__AVR__)
+  static SMA_NOINLINE void initial_state(console::State* s) {
+    static const console::State kState PROGMEM = console::State();
+    memcpy_P(s, &kState, sizeof(console::State));
+  }
+#else
+  static void initial_state(console::State* s) { new (s) console::State(); }
+#endif
+
   // The models from the active set in EEPROM, or the paper's values when there is none. The
   // Params live in the generator's storage meanwhile (start_reference() afterwards).
   SMA_NOINLINE void build_models() {
@@ -365,10 +392,10 @@ class Board {
   // lent to the generator as the run's kind, which saves a 190-byte temporary and its
   // construction code (flash).
   SMA_NOINLINE void start_reference() {
-    training_ = false;
-    Reference& r = state_.traj;
-    r.kind = state_.run_kind;
-    r.constant_mm = state_.pos_mm;
+    v_.x.training_ = false;
+    Reference& r = state_.s.traj;
+    r.kind = state_.s.run_kind;
+    r.constant_mm = state_.s.pos_mm;
     new (&gen_.gen) Gen(r);
     r.kind = RefKind::Trajectory;
   }
@@ -380,14 +407,14 @@ class Board {
     paper_params(p);  // the defaults (pbegin and pget read them when no set is active)
     Effects fx;
     Validator v = {this};
-    if (!console::model_command(c, store_, *p, fx, reply_, v) && c.op == console::Op::PCommit)
+    if (!console::model_command(c, store_, *p, fx, reply_.x, v) && c.op == console::Op::PCommit)
       build_models();
   }
   // pbegin / pcommit need the heater off (the console refuses them otherwise): their scratch is
   // the generator's storage, the reference restarts afterwards.
   SMA_NOINLINE void model_write(const console::Command& c) {
     model_op(c, &gen_.params);
-    ctl().set_gains(state_.gains());
+    ctl().set_gains(state_.s.gains());
     start_reference();
   }
   // pset / pget / pinfo / pabort may run while heating: their scratch is on the stack.
@@ -400,11 +427,11 @@ class Board {
   }
 
   SMA_NOINLINE void announce_fault() {
-    fault_due_ = false;
-    reply_.clear();
-    reply_.put_f(SMA_F("# fault "));
-    reply_.put_f(fault_name(safety_.fault()));
-    reply_.put_f(SMA_F(": heater off"));
+    v_.x.fault_due_ = false;
+    reply_.x.clear();
+    reply_.x.put_f(SMA_F("# fault "));
+    reply_.x.put_f(fault_name(safety_.fault()));
+    reply_.x.put_f(SMA_F(": heater off"));
     send();
   }
 
@@ -420,11 +447,11 @@ class Board {
 #endif
     if (slope > 0.0) plan->slope = slope;
     gen_.train.end_ticks = static_cast<uint32_t>(plan->duration() * Rig::tick_hz()) + 1u;
-    training_ = true;
-    run_start_ = ticks_;
-    reply_.put(' ');
-    reply_.put_fixed(plan->duration(), 1);
-    reply_.put_f(SMA_F(" s"));
+    v_.x.training_ = true;
+    v_.x.run_start_ = v_.x.ticks_;
+    reply_.x.put(' ');
+    reply_.x.put_fixed(plan->duration(), 1);
+    reply_.x.put_f(SMA_F(" s"));
   }
   SMA_NOINLINE float training_voltage(float t) { return static_cast<float>(gen_.train.plan.voltage_at(t)); }
 
@@ -433,23 +460,23 @@ class Board {
   SMA_NOINLINE void apply(const console::Command& c, bool tele_before) {
     using console::Op;
     if (c.op == Op::Stop) safety_.clear();
-    if (c.op == Op::Tlim) safety_.set_limit(state_.tlim_C);
-    if (c.op == Op::Volt || c.op == Op::Train) ctl().set_voltage(from_double<T>(state_.volt));
-    const Mode m = state_.active_mode();
-    if (m != ctl().mode()) ctl().set_mode(m, last_d_);
-    if (c.op == Op::Gains || c.op == Op::SetMode) ctl().set_gains(state_.gains());
-    if (state_.run != run_seen_) {
-      run_seen_ = state_.run;
+    if (c.op == Op::Tlim) safety_.set_limit(state_.s.tlim_C);
+    if (c.op == Op::Volt || c.op == Op::Train) ctl().set_voltage(from_double<T>(state_.s.volt));
+    const Mode m = state_.s.active_mode();
+    if (m != ctl().mode()) ctl().set_mode(m, v_.x.last_d_);
+    if (c.op == Op::Gains || c.op == Op::SetMode) ctl().set_gains(state_.s.gains());
+    if (state_.s.run != v_.x.run_seen_) {
+      v_.x.run_seen_ = state_.s.run;
       start_reference();
-      run_start_ = ticks_;
+      v_.x.run_start_ = v_.x.ticks_;
     }
-    if (c.op == Op::Tele && c.on && !tele_before) header_due_ = true;  // once per start
+    if (c.op == Op::Tele && c.on && !tele_before) v_.x.header_due_ = true;  // once per start
     if (Rig::train() && c.op == Op::Train) start_training(c.a);
     // A training run replaced by another command: its storage back to a generator.
-    if (training_ && !state_.training) {
-      training_ = false;
+    if (v_.x.training_ && !state_.s.training) {
+      v_.x.training_ = false;
       start_reference();
-      run_start_ = ticks_;
+      v_.x.run_start_ = v_.x.ticks_;
     }
   }
 
@@ -457,24 +484,28 @@ class Board {
   ModelStore models_;
   GenStore gen_;
   Safety safety_;
-  console::State state_;
-  console::LineBuffer line_;
-  console::Reply reply_;
-  console::Live live_;
-  LineStatus waiting_ = LineStatus::Pending;
-  console::Op model_op_ = console::Op::Empty;
-  uint8_t model_key_ = 0;
-  float model_a_ = 0.0f;
-  uint32_t ticks_ = 0;      // ticks processed
-  uint32_t run_start_ = 0;  // tick at which the running reference started
-  uint16_t run_seen_ = 0;
-  uint16_t counts_ = 0;     // PWM counts of the last tick
-  float g_mm_ = 0.958f;     // stroke limit of pos/traj (the model's g, capped by the rig)
-  T last_d_ = T(0);         // the last compensated position (a mode change starts from it)
-  bool training_ = false;   // gen_ holds a Training (not a Gen)
-  bool train_done_ = false; // "# train done" is due
-  bool fault_due_ = false;  // "# fault" is due
-  bool header_due_ = false; // the telemetry header is due
+  StateStore state_;
+  Zeroed<console::LineBuffer> line_;
+  Zeroed<console::Reply> reply_;
+  Zeroed<console::Live> live_;
+  // The board's scalars, all zero at boot (Zeroed: one memset). g_mm_ is set by construct().
+  struct Vars {
+    LineStatus waiting_;     // Pending
+    console::Op model_op_;   // Empty
+    uint8_t model_key_;
+    float model_a_;
+    uint32_t ticks_;      // ticks processed
+    uint32_t run_start_;  // tick at which the running reference started
+    uint16_t run_seen_;
+    uint16_t counts_;     // PWM counts of the last tick
+    float g_mm_;          // stroke limit of pos/traj (the model's g, capped by the rig)
+    T last_d_;            // the last compensated position (a mode change starts from it)
+    bool training_;       // gen_ holds a Training (not a Gen)
+    bool train_done_;     // "# train done" is due
+    bool fault_due_;      // "# fault" is due
+    bool header_due_;     // the telemetry header is due
+  };
+  Zeroed<Vars> v_;
 };
 
 }  // namespace sma

@@ -1,0 +1,126 @@
+// pbegin pset pget pcommit pabort pinfo on a storage::Store.
+// Part of sma/console.hpp (the command set and the contract are documented there).
+#ifndef SMA_CONSOLE_MODEL_COMMANDS_HPP
+#define SMA_CONSOLE_MODEL_COMMANDS_HPP
+
+#include "../storage.hpp"
+#include "reply.hpp"
+#include "state.hpp"
+
+namespace sma {
+namespace console {
+
+// ---- model commands (pbegin pset pget pcommit pabort pinfo) on a storage::Store -----------------
+// `scratch`/`fxs`: a Params/Effects the command may use. When the store has no active set
+// (st.active() < 0) they must hold the defaults (sma::Params(), sma::Effects()) for pbegin and
+// pget; pcommit overwrites them with the staged set. Returns true when pcommit made a new set
+// active (then in scratch/fxs): the caller rebuilds its controller from it.
+inline void pinfo_line(Reply& r, const char* head_f, int8_t active, int8_t staging, uint8_t seq,
+                       uint16_t crc) {
+  r.clear();
+  r.put_f(head_f);
+  r.put_u(storage::kVersion);
+  if (active < 0) {
+    r.put_f(SMA_F(" defaults"));
+  } else {
+    r.put_f(SMA_F(" slot "));
+    r.put_u(static_cast<uint8_t>(active));
+    r.put_f(SMA_F(" seq "));
+    r.put_u(seq);
+    r.put_f(SMA_F(" crc "));
+    r.put_hex(crc, 4);
+  }
+  if (staging >= 0) {
+    r.put_f(SMA_F(" staging "));
+    r.put_u(static_cast<uint8_t>(staging));
+  }
+}
+
+template <class E>
+inline bool model_command(const Command& c, storage::Store<E>& st, Params& scratch, Effects& fxs,
+                          Reply& r) {
+  return model_command(c, st, scratch, fxs, r, storage::CheckValidator());
+}
+// With a validator (storage.hpp): the firmware's builds its controller from the set.
+template <class E, class V>
+inline bool model_command(const Command& c, storage::Store<E>& st, Params& scratch, Effects& fxs,
+                          Reply& r, const V& valid) {
+  r.clear();
+  switch (c.op) {
+    case Op::PInfo:
+      pinfo_line(r, SMA_F("OK pinfo v"), st.active(), st.staging(), st.seq(), st.crc());
+      return false;
+    case Op::PAbort:
+      st.abort();
+      r.put_f(SMA_F("OK pabort"));
+      return false;
+    case Op::PBegin:
+      if (st.active() < 0) st.begin_from(scratch, fxs);
+      else st.begin_copy();
+      r.put_f(SMA_F("OK pbegin slot "));
+      r.put_u(static_cast<uint8_t>(st.staging()));
+      return false;
+    case Op::PSet:
+      if (st.staging() < 0) {
+        r.put_f(SMA_F("ERR pset: no staged set, send pbegin"));
+        return false;
+      }
+      st.set_value(c.key, c.a);
+      r.put_f(SMA_F("OK pset "));
+      storage::put_key_name(r, c.key);
+      r.put(' ');  // the bits as written, read back from the EEPROM
+      r.put_hex(st.read_bits(static_cast<uint8_t>(st.staging()), c.key), c.key == storage::kKeyLoops ? 2 : 8);
+      return false;
+    case Op::PGet: {
+      double v;
+      uint32_t bits;
+      if (st.active() >= 0) {
+        v = st.read_value(static_cast<uint8_t>(st.active()), c.key);
+        bits = st.read_bits(static_cast<uint8_t>(st.active()), c.key);
+      } else {
+        v = storage::get_value(scratch, fxs, c.key);
+        if (c.key != storage::kKeyLoops) v = storage::bits_float(storage::float_bits(v));
+        bits = c.key == storage::kKeyLoops ? static_cast<uint32_t>(v) : storage::float_bits(v);
+      }
+      r.put_f(SMA_F("OK pget "));
+      storage::put_key_name(r, c.key);
+      r.put(' ');
+      r.put_num(v);
+      r.put(' ');
+      r.put_hex(bits, c.key == storage::kKeyLoops ? 2 : 8);
+      return false;
+    }
+    case Op::PCommit: {
+      if (st.staging() < 0) {
+        r.put_f(SMA_F("ERR pcommit: no staged set, send pbegin"));
+        return false;
+      }
+      uint8_t bad = storage::kNoKey;
+      const char* msg = st.commit(scratch, fxs, bad, valid);
+      if (msg) {
+        // `ERR <key>: <why>`: the check() message starts with its key (Effects: the parameter).
+        // Without a key (AVR): `ERR pcommit: <message>`.
+        r.put_f(SMA_F("ERR "));
+        uint8_t n = 0;
+        if (bad != storage::kNoKey) {
+          storage::put_key_name(r, bad);
+          while (flash_char(msg + n) != 0 && flash_char(msg + n) != ' ' && flash_char(msg + n) != ':') ++n;
+          while (flash_char(msg + n) == ' ' || flash_char(msg + n) == ':') ++n;
+        } else {
+          r.put_f(SMA_F("pcommit"));
+        }
+        r.put_f(SMA_F(": "));
+        r.put_f(msg + n);
+        return false;
+      }
+      pinfo_line(r, SMA_F("OK pcommit v"), st.active(), st.staging(), st.seq(), st.crc());
+      return true;
+    }
+    default: return false;
+  }
+}
+
+}  // namespace console
+}  // namespace sma
+
+#endif  // SMA_CONSOLE_MODEL_COMMANDS_HPP
