@@ -101,3 +101,24 @@ TEST_P(EnergyBalance, PlantConservesEnergy) {
   EXPECT_NEAR(e_in - e_loss, stored, 0.05) << "in " << e_in << " loss " << e_loss;
 }
 INSTANTIATE_TEST_SUITE_P(WithAndWithoutLatentHeat, EnergyBalance, ::testing::Values(0.0, 1.0, 3.0));
+
+// The AVR's decay factors exp(-dt / tau) come from exp_neg_compact (scalar.hpp): against libm in
+// double, relative error small where the factors live (x = dt / tau up to a few), underflow to 0
+// for a vanishing time constant, NaN kept, a negative argument the reciprocal.
+TEST(ExpNegCompact, MatchesDoubleExp) {
+  double worst_small = 0.0, worst_large = 0.0;
+  for (int i = 0; i <= 20000; ++i) {
+    const double x = 20.0 * i / 20000.0;
+    const double want = std::exp(-x);
+    const double rel = std::fabs(static_cast<double>(sma::exp_neg_compact(static_cast<float>(x))) -
+                                 want) / want;
+    if (x <= 1.0) worst_small = std::max(worst_small, rel);
+    worst_large = std::max(worst_large, rel);
+  }
+  EXPECT_LT(worst_small, 3e-6);
+  EXPECT_LT(worst_large, 1e-4);
+  EXPECT_EQ(sma::exp_neg_compact(1e7f), 0.0f);
+  EXPECT_TRUE(std::isnan(sma::exp_neg_compact(NAN)));
+  EXPECT_NEAR(sma::exp_neg_compact(-2.0f), std::exp(2.0), 1e-5 * std::exp(2.0));
+  EXPECT_EQ(sma::exp_neg_compact(0.0f), 1.0f);
+}

@@ -53,7 +53,7 @@ class InverseModel {
         wire_step_(thermal_, p, cfg.dt, fx),
         v_max_(from_double<T>(cfg.v_max)),
         inv_dt_(from_double<T>(1.0 / cfg.dt)),
-        alpha_(from_double<T>(1.0 - ::exp(-cfg.dt / cfg.rate_filter_s))),
+        alpha_(from_double<T>(1.0 - decay_factor(cfg.dt / cfg.rate_filter_s))),
         inv_tau_(from_double<T>(1.0 / cfg.rate_filter_s)),
         inv_track_(from_double<T>(1.0 / cfg.track_s)),
         deadband_(from_double<T>(cfg.deadband_mm)) {

@@ -109,7 +109,7 @@ class PreviewController {
         v_max_(from_double<T>(cfg.v_max)),
         inv_dt_(from_double<T>(1.0 / cfg.dt)),
         inv_track_(from_double<T>(1.0 / cfg.track_s)),
-        d_alpha_(from_double<T>(1.0 - ::exp(-cfg.dt / cfg.offset_tau_s))),
+        d_alpha_(from_double<T>(1.0 - decay_factor(cfg.dt / cfg.offset_tau_s))),
         cool_w_(from_double<T>(cfg.cool_weight)),
         switch_margin_(from_double<T>(100.0 * cfg.switch_margin_mm * cfg.switch_margin_mm)),
         inv_n_(from_double<T>(1.0 / static_cast<int>(cfg.horizon_s / cfg.grid_s + 0.5))),

@@ -75,8 +75,8 @@ template <class T>
 class ReferenceGen {
  public:
   explicit ReferenceGen(const Reference& r) : r_(r) {
-    mid_ = from_double<T>(0.5 * (r.sine_lo_mm + r.sine_hi_mm));
-    amp_ = from_double<T>(0.5 * (r.sine_hi_mm - r.sine_lo_mm));
+    lo_ = from_double<T>(r.sine_lo_mm);
+    span_ = from_double<T>(r.sine_hi_mm - r.sine_lo_mm);
   }
 
   // Reference at t seconds (t >= 0).
@@ -92,7 +92,11 @@ class ReferenceGen {
         // Phase reduced to [0, 1) in double (float on AVR) so T never sees a large angle.
         const double cycles = t / r_.sine_period_s;
         const T phase = from_double<T>(cycles - static_cast<double>(static_cast<long>(cycles)));
-        return mid_ - amp_ * cos(phase * T(2.0 * kPi));
+        // lo + span (1 - cos 2 pi phase) / 2 = lo + span cos_ramp(x), x = 2 phase folded to
+        // [0, 1]: the phase curves' shape (scalar.hpp), so the image carries one cosine.
+        T x = phase + phase;
+        if (x > T(1)) x = T(2) - x;
+        return lo_ + span_ * cos_ramp(x);
       }
       case RefKind::Trajectory: {
         if (r_.n_points == 0) return T(0);
@@ -113,7 +117,7 @@ class ReferenceGen {
 
  private:
   Reference r_;
-  T mid_, amp_;
+  T lo_, span_;
 };
 
 }  // namespace sma

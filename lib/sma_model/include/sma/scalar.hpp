@@ -35,6 +35,35 @@ inline double exp(double x) { return ::exp(x); }
 inline bool is_finite(double x) { return isfinite(x) != 0; }
 #endif
 
+// exp(-x) in float without avr-libc's exp (which pulls in modf, ldexp and a series: ~450 B of
+// the Uno's flash), in ~100 B: halve x n times down to <= 1/32, exp(-x) there by its degree-4
+// Taylor polynomial (truncation < 3e-10), then square n times. Squaring doubles the relative
+// error each time: ~1e-6 at x = 1, plenty for the decay factors below (tested against double);
+// a large x underflows to 0; NaN stays NaN; x < 0 gives 1 / exp(x).
+inline float exp_neg_compact(float x) {
+  if (x != x) return x;
+  if (x < 0.0f) return 1.0f / exp_neg_compact(-x);
+  uint8_t n = 0;
+  while (x > 0.03125f && n < 60) {
+    x *= 0.5f;
+    ++n;
+  }
+  float y = 1.0f - x * (1.0f - x * (0.5f - x * (1.0f / 6.0f - x * (1.0f / 24.0f))));
+  while (n-- > 0) y *= y;
+  return y;
+}
+
+// exp(-x) for the per-tick decay factors the constructors compute once (exp(-dt / tau): thermal
+// discretisation, filters). Host: libm in double; AVR: exp_neg_compact, the flash it saves is what
+// keeps every feature in one Uno image.
+inline double decay_factor(double x) {
+#if defined(__AVR__)
+  return static_cast<double>(exp_neg_compact(static_cast<float>(x)));
+#else
+  return ::exp(-x);
+#endif
+}
+
 template <class T> constexpr T abs(T x) { return x < T(0) ? -x : x; }
 template <class T> constexpr T min(T a, T b) { return b < a ? b : a; }
 template <class T> constexpr T max(T a, T b) { return a < b ? b : a; }

@@ -31,7 +31,7 @@ class SensorPredictor {
         mech_(p, fx),
         inv_gain_(from_double<T>(1.0 / fx.sensor_gain)),
         offset_(from_double<T>(fx.sensor_offset_mm)),
-        a_(from_double<T>(1.0 - ::exp(-dt / (fx.sensor_lag_s + fx.sensor_delay_s + 1e-9)))),
+        a_(from_double<T>(1.0 - decay_factor(dt / (fx.sensor_lag_s + fx.sensor_delay_s + 1e-9)))),
         dynamic_(fx.sensor_lag_s + fx.sensor_delay_s > 0.0),
         y_s_(T(0)) {}
 

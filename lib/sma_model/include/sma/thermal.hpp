@@ -85,7 +85,7 @@ struct ThermalStep {
   T a, b, T_a;
   ThermalStep(const Params& p, double dt, const Effects& fx = Effects()) {
     const double tau = p.heat_capacity() / p.conductance();
-    const double ad = ::exp(-dt / tau);
+    const double ad = decay_factor(dt / tau);
     a = from_double<T>(ad);
     b = from_double<T>((1.0 - ad) / (p.R * p.conductance()));
     T_a = from_double<T>(p.T_amb + fx.ambient_offset_K);
