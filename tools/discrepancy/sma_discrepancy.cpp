@@ -277,6 +277,8 @@ int run(int argc, char** argv) {
   j << "],\n  \"residual_analysis\": {\"rms_mm\": " << number(ra.rms_mm) << ", \"follows\": " << quote(ra.follows)
     << ", \"no_credible_candidate\": " << (none_credible ? "true" : "false") << ", \"at_bound\": [";
   for (size_t k = 0; k < d.at_bound.size(); ++k) j << (k ? ", " : "") << quote(d.at_bound[k]);
+  j << "], \"not_credible\": [";
+  for (size_t k = 0; k < d.not_credible.size(); ++k) j << (k ? ", " : "") << quote(d.not_credible[k]);
   j << "], \"states\": [";
   for (size_t k = 0; k < ra.states.size(); ++k) {
     const sma_host::StateFit& sf = ra.states[k];
@@ -401,8 +403,11 @@ int run(int argc, char** argv) {
     md << "**The vocabulary does not explain this log**: " << (d.steps.empty() ? "" : "after the effects above, ")
        << "the gap left (" << num(d.rms_final) << " mm) is " << num(d.rms_final / d.noise_mm)
        << "x the noise, no further candidate is credible, and "
-       << (d.at_bound.empty() ? std::string("no candidate shrinks it enough")
-                              : "the candidates that would shrink it end at a bound of their range (not added)")
+       << (!d.not_credible.empty()
+               ? std::string("the candidates that would shrink it are stand-ins (their value differs between the "
+                             "halves of the log, or they make a held-out part worse: not added)")
+               : d.at_bound.empty() ? std::string("no candidate shrinks it enough")
+                                    : "the candidates that would shrink it end at a bound of their range (not added)")
        << ". The model lacks something; the residual against the model's states shows where:\n\n";
   else
     md << "The residual left after the last round (RMS " << num(ra.rms_mm) << " mm) against the model's states:\n\n";
@@ -417,6 +422,10 @@ int run(int argc, char** argv) {
     md << "\nNot added, at a bound of their range (stand-ins, not measurements):";
     for (const std::string& n : d.at_bound) md << " `" << n << "`";
     md << ".\n";
+  }
+  if (!d.not_credible.empty()) {
+    md << "\nNot added, stand-ins for a difference of the base model (one value does not fit the whole log):\n\n";
+    for (const std::string& n : d.not_credible) md << "- `" << n.substr(0, n.find(':')) << "`" << n.substr(n.find(':')) << "\n";
   }
   md << "\n## Where the gap lives (residual RMS, mm)\n\n| regime | share of log | paper's model | corrected |\n|---|---|---|---|\n";
   for (size_t i = 0; i < reg0.size(); ++i)
