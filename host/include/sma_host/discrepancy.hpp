@@ -586,7 +586,11 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
   d.rms_nominal = rms_on(d.nominal, log, all);
   FitOutcome current = fit_effects(p, present_effects(start), log, split, o.refit_base);
   std::vector<const EffectSpec*> idle;  // candidates that won at their neutral value
-  while (static_cast<int>(current.effects.size()) < o.max_effects) {
+  // max_effects counts the effects this run adds; those of the given params are refined, not
+  // counted (a fitted params file with three effects must still be offered the others).
+  const int n_given = static_cast<int>(current.effects.size());
+  auto n_added = [&]() { return static_cast<int>(current.effects.size()) - n_given; };
+  while (n_added() < o.max_effects) {
     if (current.rms_test < 1.15 * d.noise_mm) break;  // nothing left above the noise
     std::vector<CandidateScore> scores;
     std::vector<const EffectSpec*> todo;
@@ -675,7 +679,7 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
     // round are fitted two at a time; the best pair is added if it beats the best single one
     // clearly and both of its effects are credible.
     if (!found_one && o.pair_search && current.rms_test > 3.0 * d.noise_mm &&
-        static_cast<int>(current.effects.size()) + 2 <= o.max_effects) {
+        n_added() + 2 <= o.max_effects) {
       const size_t top = std::min<size_t>(4, scores.size());
       std::vector<std::pair<size_t, size_t>> pairs;
       for (size_t a = 0; a < top; ++a)
