@@ -259,7 +259,21 @@ int run(int argc, char** argv) {
     for (size_t k = 0; k < s.lookalikes.size(); ++k) j << (k ? ", " : "") << quote(s.lookalikes[k]);
     j << "]}";
   }
-  j << (d.steps.empty() ? "" : "\n  ") << "],\n  \"noise_mm\": " << number(d.noise_mm) << ",\n  \"log\": " << quote(log_path)
+  // The effects of the given params (not added by this run), refined on this log: their values
+  // and intervals tell whether the log confirms them.
+  j << (d.steps.empty() ? "" : "\n  ") << "],\n  \"given_effects\": [";
+  {
+    bool first = true;
+    for (const sma_host::FittedEffect& e : d.effects) {
+      bool added = false;
+      for (const sma_host::Step& s : d.steps) added = added || s.added.spec == e.spec;
+      if (added) continue;
+      j << (first ? "" : ",") << "\n    {\"name\": " << quote(e.spec->name) << ", \"params\": " << params_json(e, false)
+        << ", \"ci95\": " << params_json(e, true) << ", \"at_bound\": " << (sma_host::at_bound(e) ? "true" : "false") << "}";
+      first = false;
+    }
+  }
+  j << "],\n  \"noise_mm\": " << number(d.noise_mm) << ",\n  \"log\": " << quote(log_path)
     << ",\n  \"samples\": " << log.size() << ",\n  \"dropped_rows\": " << file.dropped << ",\n  \"candidates\": [";
   for (size_t i = 0; i < d.steps.size(); ++i) {
     j << (i ? "," : "") << "\n    [";
@@ -379,6 +393,21 @@ int run(int argc, char** argv) {
       if (!s.lookalikes.empty())
         md << "- `" << s.added.spec->name << "` fits this log about as well as " << s.lookalikes.size()
            << " other effect(s); to separate them record " << s.added.spec->separate << ".\n";
+  }
+  {
+    std::string given;
+    for (const sma_host::FittedEffect& e : d.effects) {
+      bool added = false;
+      for (const sma_host::Step& s : d.steps) added = added || s.added.spec == e.spec;
+      if (added) continue;
+      given += "| `" + std::string(e.spec->name) + "` | ";
+      for (int k = 0; k < e.spec->n; ++k)
+        given += (k ? ", " : "") + std::string(e.spec->param[k]) + " = " + num(e.value[k]) + " ± " + num(e.ci95[k]);
+      given += sma_host::at_bound(e) ? " (at a bound: not confirmed by this log) |\n" : " |\n";
+    }
+    if (!given.empty())
+      md << "Effects of the given params, refined on this log:\n\n| effect | parameters (95 % interval) |\n|---|---|\n"
+         << given << "\n";
   }
   if (!opt.refit_base.empty()) {
     md << "Base parameters refitted jointly with the effects:\n\n| parameter | given | refitted (95 % interval) |\n|---|---|---|\n";
