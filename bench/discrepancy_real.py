@@ -43,6 +43,7 @@ ALPHA_BOUNDS = (0.0, 1e-4)    # the vocabulary's range (discrepancy.hpp)
 
 def check_run(disc_bin, data, work, variant, run, params, rows, failures):
     out = os.path.join(work, variant, run)
+    os.makedirs(out, exist_ok=True)
     t0 = time.time()
     r = subprocess.run([disc_bin, os.path.join(data, run + ".csv"), "--params", params, "--out", out, "--no-plots"],
                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
