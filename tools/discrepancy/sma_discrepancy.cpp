@@ -260,7 +260,21 @@ int run(int argc, char** argv) {
     for (size_t k = 0; k < s.lookalikes.size(); ++k) j << (k ? ", " : "") << quote(s.lookalikes[k]);
     j << "]}";
   }
-  j << (d.steps.empty() ? "" : "\n  ") << "],\n  \"noise_mm\": " << number(d.noise_mm) << ",\n  \"log\": " << quote(log_path)
+  // The effects of the given params (not added by this run), refined on this log: their values
+  // and intervals tell whether the log confirms them.
+  j << (d.steps.empty() ? "" : "\n  ") << "],\n  \"given_effects\": [";
+  {
+    bool first = true;
+    for (const sma_host::FittedEffect& e : d.effects) {
+      bool added = false;
+      for (const sma_host::Step& s : d.steps) added = added || s.added.spec == e.spec;
+      if (added) continue;
+      j << (first ? "" : ",") << "\n    {\"name\": " << quote(e.spec->name) << ", \"params\": " << params_json(e, false)
+        << ", \"ci95\": " << params_json(e, true) << ", \"at_bound\": " << (sma_host::at_bound(e) ? "true" : "false") << "}";
+      first = false;
+    }
+  }
+  j << "],\n  \"noise_mm\": " << number(d.noise_mm) << ",\n  \"log\": " << quote(log_path)
     << ",\n  \"samples\": " << log.size() << ",\n  \"dropped_rows\": " << file.dropped << ",\n  \"candidates\": [";
   for (size_t i = 0; i < d.steps.size(); ++i) {
     j << (i ? "," : "") << "\n    [";
@@ -278,6 +292,8 @@ int run(int argc, char** argv) {
   j << "],\n  \"residual_analysis\": {\"rms_mm\": " << number(ra.rms_mm) << ", \"follows\": " << quote(ra.follows)
     << ", \"no_credible_candidate\": " << (none_credible ? "true" : "false") << ", \"at_bound\": [";
   for (size_t k = 0; k < d.at_bound.size(); ++k) j << (k ? ", " : "") << quote(d.at_bound[k]);
+  j << "], \"not_credible\": [";
+  for (size_t k = 0; k < d.not_credible.size(); ++k) j << (k ? ", " : "") << quote(d.not_credible[k]);
   j << "], \"states\": [";
   for (size_t k = 0; k < ra.states.size(); ++k) {
     const sma_host::StateFit& sf = ra.states[k];
@@ -379,6 +395,21 @@ int run(int argc, char** argv) {
         md << "- `" << s.added.spec->name << "` fits this log about as well as " << s.lookalikes.size()
            << " other effect(s); to separate them record " << s.added.spec->separate << ".\n";
   }
+  {
+    std::string given;
+    for (const sma_host::FittedEffect& e : d.effects) {
+      bool added = false;
+      for (const sma_host::Step& s : d.steps) added = added || s.added.spec == e.spec;
+      if (added) continue;
+      given += "| `" + std::string(e.spec->name) + "` | ";
+      for (int k = 0; k < e.spec->n; ++k)
+        given += (k ? ", " : "") + std::string(e.spec->param[k]) + " = " + num(e.value[k]) + " ± " + num(e.ci95[k]);
+      given += sma_host::at_bound(e) ? " (at a bound: not confirmed by this log) |\n" : " |\n";
+    }
+    if (!given.empty())
+      md << "Effects of the given params, refined on this log:\n\n| effect | parameters (95 % interval) |\n|---|---|\n"
+         << given << "\n";
+  }
   if (!opt.refit_base.empty()) {
     md << "Base parameters refitted jointly with the effects:\n\n| parameter | given | refitted (95 % interval) |\n|---|---|---|\n";
     for (size_t i = 0; i < opt.refit_base.size(); ++i) {
@@ -402,8 +433,11 @@ int run(int argc, char** argv) {
     md << "**The vocabulary does not explain this log**: " << (d.steps.empty() ? "" : "after the effects above, ")
        << "the gap left (" << num(d.rms_final) << " mm) is " << num(d.rms_final / d.noise_mm)
        << "x the noise, no further candidate is credible, and "
-       << (d.at_bound.empty() ? std::string("no candidate shrinks it enough")
-                              : "the candidates that would shrink it end at a bound of their range (not added)")
+       << (!d.not_credible.empty()
+               ? std::string("the candidates that would shrink it are stand-ins (their value differs between the "
+                             "halves of the log, or they make a held-out part worse: not added)")
+               : d.at_bound.empty() ? std::string("no candidate shrinks it enough")
+                                    : "the candidates that would shrink it end at a bound of their range (not added)")
        << ". The model lacks something; the residual against the model's states shows where:\n\n";
   else
     md << "The residual left after the last round (RMS " << num(ra.rms_mm) << " mm) against the model's states:\n\n";
@@ -418,6 +452,10 @@ int run(int argc, char** argv) {
     md << "\nNot added, at a bound of their range (stand-ins, not measurements):";
     for (const std::string& n : d.at_bound) md << " `" << n << "`";
     md << ".\n";
+  }
+  if (!d.not_credible.empty()) {
+    md << "\nNot added, stand-ins for a difference of the base model (one value does not fit the whole log):\n\n";
+    for (const std::string& n : d.not_credible) md << "- `" << n.substr(0, n.find(':')) << "`" << n.substr(n.find(':')) << "\n";
   }
   md << "\n## Where the gap lives (residual RMS, mm)\n\n| regime | share of log | paper's model | corrected |\n|---|---|---|---|\n";
   for (size_t i = 0; i < reg0.size(); ++i)

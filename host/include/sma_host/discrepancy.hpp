@@ -16,6 +16,8 @@
 #define SMA_HOST_DISCREPANCY_HPP
 
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <Eigen/Dense>
 #include <algorithm>
@@ -178,6 +180,14 @@ struct Options {
   int max_effects = 3;
   int max_residuals = 6000; // residuals per fit (the log is strided down to this)
   int threads = 2;          // candidates fitted at once
+  // Credibility of a winner (credibility()): its parameter fitted on the two halves of the log
+  // may differ by at most this fraction of its size (or within the noise of the two fits), and
+  // no held-out block may get worse by more than block_worse of its RMS (and 2x the noise, and
+  // a quarter of the candidate's overall held-out gain).
+  double half_rel = 0.5;
+  double block_worse = 0.25;
+  bool check_credibility = true;
+  bool pair_search = true;  // two candidates fitted jointly when no single one is credible
   // Base parameters refitted jointly with every candidate (names of refittable_base()); empty:
   // the base model stays as given and only the effects are fitted.
   std::vector<const BaseSpec*> refit_base;
@@ -408,6 +418,7 @@ struct Diagnosis {
   std::vector<double> base_ci95;
   double rms_test_final = 0;              // held-out RMS of the final model
   std::vector<std::string> at_bound;      // candidates not added: they ended at a bound
+  std::vector<std::string> not_credible;  // candidates not added: stand-ins (credibility()), with why
 };
 
 // BIC of a held-out residual with k extra parameters; n_eff discounts the autocorrelation of
@@ -480,6 +491,92 @@ inline bool at_neutral(const FittedEffect& f) {
   return true;
 }
 
+// ---- credibility: an effect against a stand-in ------------------------------------------------
+//
+// A physical effect has one value over the whole log and helps wherever the log excites it. A
+// stand-in (an effect fitted to absorb a difference of the base model itself, e.g. another
+// minor-loop rule) takes whatever value trades the base's error best: its fitted value differs
+// between the two halves of the log, and it makes some held-out blocks worse to make others
+// better. Both are checked on the winner of a round before it is added.
+struct Credibility {
+  bool ok = true;
+  double half[2][2] = {{0, 0}, {0, 0}};     // the new effect's parameters fitted on each half
+  double half_ci[2][2] = {{0, 0}, {0, 0}};  // their 95 % half-widths
+  double worst_block = 0;                   // largest held-out block RMS increase, mm
+  double worst_block_before = 0;            // that block's RMS before, mm
+  std::string why;                          // empty when credible
+};
+
+// The held-out blocks of a split (indices grouped by block).
+inline std::vector<std::vector<size_t>> heldout_blocks(const RigLog& log, const Split& s, double block_s) {
+  std::vector<std::vector<size_t>> out;
+  long last = -1;
+  for (size_t k : s.test) {
+    const long b = static_cast<long>((log.t[k] - log.t[0]) / block_s);
+    if (b != last) out.emplace_back();
+    out.back().push_back(k);
+    last = b;
+  }
+  return out;
+}
+
+inline Credibility credibility(const FitOutcome& current, const FitOutcome& win, const RigLog& log,
+                               const Split& split, const Options& o, double noise, size_t n_new = 1) {
+  Credibility c;
+  const sma::Effects none;
+  // 1. The same model fitted on the training blocks of each half of the log.
+  const double t_mid = 0.5 * (log.t.front() + log.t.back());
+  Split half[2];
+  for (size_t k : split.train) half[log.t[k] < t_mid ? 0 : 1].train.push_back(k);
+  FitOutcome fh[2];
+  for (int h = 0; h < 2; ++h) {
+    half[h].test = split.test;
+    fh[h] = fit_effects(win.params, win.effects, log, half[h], o.refit_base);
+  }
+  for (size_t e = win.effects.size() - n_new; e < win.effects.size(); ++e) {
+  const FittedEffect& added = win.effects[e];
+  for (int h = 0; h < 2; ++h)
+    for (int i = 0; i < added.spec->n; ++i) {
+      c.half[h][i] = fh[h].effects[e].value[i];
+      c.half_ci[h][i] = fh[h].effects[e].ci95[i];
+    }
+  // The first parameter measures the effect's size (a calibration's gain; its offset trades
+  // with the sensor zero and the stroke and is not judged).
+  for (int i = 0; i < 1; ++i) {
+    if (frozen(*added.spec, i, o.refit_base)) continue;
+    const double n0 = none.*(added.spec->field[i]);
+    const double a = c.half[0][i] - n0, b = c.half[1][i] - n0;
+    const double diff = fabs(a - b);
+    const double sigma = sqrt(c.half_ci[0][i] * c.half_ci[0][i] + c.half_ci[1][i] * c.half_ci[1][i]) / 1.96;
+    const double size = fmax(fabs(a), fabs(b));
+    if (diff > o.half_rel * size && diff > 3.0 * sigma && size > 0.05 * added.spec->scale[i]) {
+      c.ok = false;
+      c.why = std::string(added.spec->name) + "." + added.spec->param[i] + " " + std::to_string(c.half[0][i]) +
+              " on the first half, " + std::to_string(c.half[1][i]) + " on the second";
+    }
+  }
+  }
+  // 2. No held-out block made clearly worse.
+  const std::vector<double> p0 = predict(current.params, effects_of(current.effects), log);
+  const std::vector<double> p1 = predict(win.params, effects_of(win.effects), log);
+  for (const std::vector<size_t>& blk : heldout_blocks(log, split, o.block_s)) {
+    const double r0 = rms_on(p0, log, blk), r1 = rms_on(p1, log, blk);
+    if (r1 - r0 > c.worst_block) {
+      c.worst_block = r1 - r0;
+      c.worst_block_before = r0;
+    }
+  }
+  // Small next to what the candidate gains overall (a rest block a few um worse while the
+  // transformation blocks improve by 0.1 mm) is the price of a partial model, not a trade.
+  const double gain = current.rms_test - win.rms_test;
+  if (c.worst_block > fmax(fmax(o.block_worse * c.worst_block_before, 2.0 * noise), 0.25 * gain) && c.ok) {
+    c.ok = false;
+    c.why = "a held-out block gets worse (" + std::to_string(c.worst_block_before) + " -> " +
+            std::to_string(c.worst_block_before + c.worst_block) + " mm)";
+  }
+  return c;
+}
+
 template <class Progress>
 Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Progress progress,
                    const sma::Effects& start = sma::Effects()) {
@@ -493,7 +590,11 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
   d.rms_nominal = rms_on(d.nominal, log, all);
   FitOutcome current = fit_effects(p, present_effects(start), log, split, o.refit_base);
   std::vector<const EffectSpec*> idle;  // candidates that won at their neutral value
-  while (static_cast<int>(current.effects.size()) < o.max_effects) {
+  // max_effects counts the effects this run adds; those of the given params are refined, not
+  // counted (a fitted params file with three effects must still be offered the others).
+  const int n_given = static_cast<int>(current.effects.size());
+  auto n_added = [&]() { return static_cast<int>(current.effects.size()) - n_given; };
+  while (n_added() < o.max_effects) {
     if (current.rms_test < 1.15 * d.noise_mm) break;  // nothing left above the noise
     std::vector<CandidateScore> scores;
     std::vector<const EffectSpec*> todo;
@@ -543,23 +644,106 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
     if (scores.empty()) break;
     // A candidate whose fitted parameter ends at its bound stands in for a larger model error
     // (it is not a measurement of the effect): not credible, the next one is judged instead.
+    // A candidate that fails credibility() is a stand-in for a difference of the base model:
+    // the next one is judged instead (at most 3 such checks per round).
     size_t w = 0;
-    while (w < scores.size() && at_bound(scores[w].fit.effects.back())) {
-      d.at_bound.push_back(scores[w].name);
-      ++w;
+    int checks = 0;
+    bool found_one = false;
+    for (; w < scores.size(); ++w) {
+      const CandidateScore& cand = scores[w];
+      if (at_bound(cand.fit.effects.back())) {
+        d.at_bound.push_back(cand.name);
+        continue;
+      }
+      // Both tests on the held-out blocks; BIC charges the winner for its extra parameters.
+      const bool clear_gain = cand.rms_test < (1.0 - o.min_gain) * current.rms_test;
+      const bool bic_better =
+          bic(cand.rms_test, n_eff, cand.fit.effects.back().spec->n) < bic(current.rms_test, n_eff, 0);
+      if (!clear_gain || !bic_better) break;  // the later ones gain even less
+      if (!o.check_credibility || at_neutral(cand.fit.effects.back())) {
+        found_one = true;
+        break;
+      }
+      if (checks++ >= 3) break;
+      const Credibility c = credibility(current, cand.fit, log, split, o, d.noise_mm);
+      if (getenv("SMA_DISC_DEBUG"))
+        fprintf(stderr, "\n[cred] %s held-out %.4f -> %.4f: halves %.4g (+-%.2g) / %.4g (+-%.2g); worst block %.4f -> %.4f: %s\n",
+                cand.name.c_str(), current.rms_test, cand.rms_test, c.half[0][0], c.half_ci[0][0], c.half[1][0],
+                c.half_ci[1][0], c.worst_block_before, c.worst_block_before + c.worst_block,
+                c.ok ? "credible" : c.why.c_str());
+      if (c.ok) {
+        found_one = true;
+        break;
+      }
+      d.not_credible.push_back(cand.name + ": " + c.why);
     }
-    if (w == scores.size()) {
+    // Pairs that only help together (e.g. a resistance that falls with the fraction advances a
+    // sine's response, a sensor lag delays it: each alone makes the fit worse): when no single
+    // candidate is credible and the gap is well above the noise, the best candidates of this
+    // round are fitted two at a time; the best pair is added if it beats the best single one
+    // clearly and both of its effects are credible.
+    if (!found_one && o.pair_search && current.rms_test > 3.0 * d.noise_mm &&
+        n_added() + 2 <= o.max_effects) {
+      const size_t top = std::min<size_t>(4, scores.size());
+      std::vector<std::pair<size_t, size_t>> pairs;
+      for (size_t a = 0; a < top; ++a)
+        for (size_t b = a + 1; b < top; ++b) pairs.emplace_back(a, b);
+      for (size_t k = 0; k < pairs.size(); ++k) progress("pairs");
+      std::vector<FitOutcome> pf(pairs.size());
+      in_parallel(pairs.size(), o.threads, [&](size_t k) {
+        for (int st = 0; st < 2; ++st) {
+          std::vector<FittedEffect> trial = current.effects;
+          for (size_t m : {pairs[k].first, pairs[k].second}) {
+            const FittedEffect& single = scores[m].fit.effects.back();
+            FittedEffect add{single.spec, {0, 0}, {0, 0}};
+            for (int i = 0; i < single.spec->n; ++i) add.value[i] = st == 0 ? single.value[i] : single.spec->start[0][i];
+            trial.push_back(add);
+          }
+          const FitOutcome f = fit_effects(current.params, trial, log, split, o.refit_base);
+          if (f.rms_test < pf[k].rms_test) pf[k] = f;
+        }
+      });
+      size_t best = pairs.size();
+      for (size_t k = 0; k < pairs.size(); ++k) {
+        const size_t n = pf[k].effects.size();
+        if (n < 2) continue;
+        bool usable = true;
+        for (size_t e = n - 2; e < n; ++e) usable = usable && !at_bound(pf[k].effects[e]) && !at_neutral(pf[k].effects[e]);
+        if (usable && (best == pairs.size() || pf[k].rms_test < pf[best].rms_test)) best = k;
+      }
+      if (best < pairs.size()) {
+        const FitOutcome& pw = pf[best];
+        const int k_par = pw.effects[pw.effects.size() - 2].spec->n + pw.effects.back().spec->n;
+        const bool clear_gain = pw.rms_test < (1.0 - o.min_gain) * current.rms_test &&
+                                pw.rms_test < (1.0 - o.min_gain) * scores[0].rms_test;
+        const bool bic_better = bic(pw.rms_test, n_eff, k_par) < bic(current.rms_test, n_eff, 0);
+        const std::string pair_name = scores[pairs[best].first].name + " + " + scores[pairs[best].second].name;
+        if (clear_gain && bic_better) {
+          const Credibility c = credibility(current, pw, log, split, o, d.noise_mm, 2);
+          if (getenv("SMA_DISC_DEBUG"))
+            fprintf(stderr, "\n[cred] pair %s held-out %.4f -> %.4f: %s\n", pair_name.c_str(), current.rms_test,
+                    pw.rms_test, c.ok ? "credible" : c.why.c_str());
+          if (c.ok) {
+            for (size_t e = pw.effects.size() - 2; e < pw.effects.size(); ++e) {
+              Step step;
+              step.added = pw.effects[e];
+              step.rms_before = current.rms_all;
+              step.rms_after = pw.rms_all;
+              step.candidates = scores;
+              d.steps.push_back(step);
+            }
+            current = pw;
+            continue;
+          }
+          d.not_credible.push_back(pair_name + ": " + c.why);
+        }
+      }
+    }
+    if (!found_one) {
       d.rejected = scores;
       break;
     }
     const CandidateScore& win = scores[w];
-    // Both tests on the held-out blocks; BIC charges the winner for its extra parameters.
-    const bool clear_gain = win.rms_test < (1.0 - o.min_gain) * current.rms_test;
-    const bool bic_better = bic(win.rms_test, n_eff, win.fit.effects.back().spec->n) < bic(current.rms_test, n_eff, 0);
-    if (!clear_gain || !bic_better) {
-      d.rejected = scores;
-      break;
-    }
     if (at_neutral(win.fit.effects.back())) {
       // The winner's own parameter stayed at "no effect": the gain came from refitting the rest
       // from a new starting point. Keep that better fit, without the idle effect, and do not
