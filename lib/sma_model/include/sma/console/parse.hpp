@@ -111,6 +111,7 @@ enum Prop : uint8_t {
   kTrainCmd = 16,     // exists where Limits::train
   kOptional = 32,     // its number may be omitted
   kKeyed = 64,        // a storage key comes first (pset, pget); its number has the key's range
+  kSameWord = 128,    // the same command word as the row before (another keyword of it)
 };
 // The numbers: name (in the errors) and range. Upper bound -1: the stroke (Limits::g_mm), -2:
 // Limits::v_max.
@@ -136,17 +137,17 @@ static SMA_STORAGE_TABLE CommandRow kCommandRows[] = {
     {Op::Step, 0, kEnds, {0, 0, 0}},
     {Op::Sine, 0, kEnds, {0, 0, 0}},
     {Op::TrajClear, 0, 0, {0, 0, 0}},
-    {Op::TrajRun, 0, kEnds, {0, 0, 0}},
-    {Op::TrajPoint, 0, 0, {kArgTs, kArgMm, 0}},
+    {Op::TrajRun, 0, kEnds | kSameWord, {0, 0, 0}},
+    {Op::TrajPoint, 0, kSameWord, {kArgTs, kArgMm, 0}},
     {Op::SetMode, static_cast<uint8_t>(Mode::OpenLoop), kEndsTraining, {0, 0, 0}},
-    {Op::SetMode, static_cast<uint8_t>(Mode::Pid), kEndsTraining, {0, 0, 0}},
-    {Op::SetMode, static_cast<uint8_t>(Mode::Feedforward), kEndsTraining, {0, 0, 0}},
-    {Op::SetMode, static_cast<uint8_t>(Mode::FeedforwardPid), kEndsTraining, {0, 0, 0}},
+    {Op::SetMode, static_cast<uint8_t>(Mode::Pid), kEndsTraining | kSameWord, {0, 0, 0}},
+    {Op::SetMode, static_cast<uint8_t>(Mode::Feedforward), kEndsTraining | kSameWord, {0, 0, 0}},
+    {Op::SetMode, static_cast<uint8_t>(Mode::FeedforwardPid), kEndsTraining | kSameWord, {0, 0, 0}},
     {Op::Volt, 0, kEnds, {kArgV, 0, 0}},
     {Op::Gains, 0, 0, {kArgKp, kArgKi, kArgKd}},
     {Op::Tlim, 0, 0, {kArgDegC, 0, 0}},
     {Op::Tele, 1, 0, {0, 0, 0}},
-    {Op::Tele, 0, 0, {0, 0, 0}},
+    {Op::Tele, 0, kSameWord, {0, 0, 0}},
     {Op::Status, 0, 0, {0, 0, 0}},
     {Op::Stop, 0, kEndsTraining, {0, 0, 0}},
     {Op::Help, 0, 0, {0, 0, 0}},
@@ -195,35 +196,34 @@ inline bool word_is(const char* list_f, uint8_t n, const char* tok, uint8_t len)
   storage::detail::put_word(cmp, list_f, n);
   return cmp.same && cmp.k == len;
 }
-inline bool same_word(uint8_t r1, uint8_t r2) {
-  struct Buf {
-    char t[8];
-    uint8_t n;
-    void put(char c) {
-      if (n < 8) t[n++] = c;
-    }
-  } b = {{0}, 0};
-  storage::detail::put_word(b, command_words(), r1);
-  return word_is(command_words(), r2, b.t, b.n);
-}
 inline bool has_sub(uint8_t r) { return !word_is(command_subs(), r, "-", 1); }
 }  // namespace detail
 
 // `help`: the words of the commands of this build, '|'-separated; a command that takes one
-// number shows its unit (pos mm).
+// number shows its unit (pos mm). One pass over the word and keyword lists: a lookup per row
+// scanned the flash lists ~100 times, ~8 ms on the Uno, longer than a reply's slot before a tick.
 inline void put_help(Reply& reply, const Limits& lim) {
   using namespace detail;
+  const char* w = command_words();  // word of row r
+  const char* s = command_subs();   // keyword of row r
   bool first = true;
   for (uint8_t r = 0; r < kCommandCount; ++r) {
     const CommandRow row = command_row(r);
-    if (!row_exists(row, lim) || (r > 0 && same_word(r, static_cast<uint8_t>(r - 1)))) continue;
-    if (!first) reply.put('|');
-    first = false;
-    storage::detail::put_word(reply, command_words(), r);
-    if (row.args[0] != kNoArg && row.args[1] == kNoArg && !(row.props & (kKeyed | kOptional)) && !has_sub(r)) {
-      reply.put(' ');
-      storage::detail::put_word(reply, arg_names(), row.args[0]);
+    const bool sub = flash_char(s) != '-';
+    if (row_exists(row, lim) && !(row.props & kSameWord)) {
+      if (!first) reply.put('|');
+      first = false;
+      storage::detail::put_word(reply, w, 0);
+      if (row.args[0] != kNoArg && row.args[1] == kNoArg && !(row.props & (kKeyed | kOptional)) && !sub) {
+        reply.put(' ');
+        storage::detail::put_word(reply, arg_names(), row.args[0]);
+      }
     }
+    // Next words (the last row's step lands one past the lists' ends; nothing reads there).
+    while (flash_char(w) != ' ' && flash_char(w) != 0) ++w;
+    ++w;
+    while (flash_char(s) != ' ' && flash_char(s) != 0) ++s;
+    ++s;
   }
 }
 
@@ -274,7 +274,7 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
   const char* save = p;
   const char* tok = next_token(p, len);
   uint8_t last = first;
-  while (last + 1 < kCommandCount && same_word(first, static_cast<uint8_t>(last + 1))) ++last;
+  while (last + 1 < kCommandCount && (command_row(static_cast<uint8_t>(last + 1)).props & kSameWord)) ++last;
   if (last > first) {  // keywords: `mode open`, `tele on`, `traj clear` ...
     r = first;
     while (r <= last && has_sub(r) && !word_is(command_subs(), r, tok, len)) ++r;
