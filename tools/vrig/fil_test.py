@@ -36,8 +36,8 @@ Bounds (why these numbers):
   * Max |error| while heating on the sine after the first period <= 0.036 mm: the rig-like anchor
     of model.md for the inverse + PID (this controller gets ~0.010 mm).
   * Heater off within one tick: the fault is injected at a 1 ms plant step; the firmware checks
-    every ADC sample of the tick's window, so the first control section that ends after the fault
-    must already have written duty 0 (ticks_heating_after_fault == 0, delay <= 10 ms + the
+    every ADC sample of the tick's window, so the first control section whose window holds a
+    faulted sample must already have written duty 0 (ticks_heating_after_fault == 0, delay <= 10 ms + the
     control section).
   * Stack: the deepest SP seen by the virtual rig (every push and frame) stays >= 32 bytes above
     _end (avr-nm), room for one more interrupt frame.

@@ -52,6 +52,7 @@ namespace {
 constexpr uint32_t kFreq = 16000000u;
 constexpr uint32_t kPlantCycles = kFreq / 1000u;  // plant step: 1 ms
 constexpr double kPlantDt = 1e-3;
+constexpr uint64_t kAdcFaultCycles = 2u * 13u * 128u;  // two conversions at prescaler 128
 // ATmega328P data-space addresses.
 constexpr uint16_t kGPIOR0 = 0x3E;
 constexpr uint16_t kTCCR1A = 0x80;
@@ -247,8 +248,13 @@ struct Stats {
   double first_tick_s = -1, last_tick_s = -1;
   // Within the flood window.
   uint64_t flood_ticks = 0, flood_iv_max = 0;
-  // Sensor fault.
+  // Sensor fault. The firmware can only react to a faulted sample it has summed: a tick whose
+  // samples were all taken before the fault reached the ADC may still heat. A tick counts as
+  // "after the fault" when it starts two conversions (13 ADC clocks of 128 cycles each: one may
+  // have latched the old input) after the plant step that raised the faulted voltage.
   double heater_off_s = -1;
+  uint64_t fault_visible_cycle = UINT64_MAX;
+  bool tick_sees_fault = false;
   uint64_t ticks_after_fault_with_heat = 0;
   // Serial.
   uint64_t bytes_in = 0, bytes_out = 0;
@@ -306,7 +312,7 @@ void write_json(const Options& o, const Stats& st, const char* variant, double s
           "  \"tick_interval_max_s\": %.4f,\n"
           "  \"tick_jitter_us\": %.3f,\n"
           "  \"flood_tick_rate_hz\": %.4f,\n  \"flood_tick_interval_max_us\": %.3f,\n"
-          "  \"sensor_fault_s\": %.4f,\n  \"heater_off_s\": %.4f,\n"
+          "  \"sensor_fault_s\": %.4f,\n  \"sensor_fault_visible_s\": %.6f,\n  \"heater_off_s\": %.4f,\n"
           "  \"ticks_heating_after_fault\": %llu,\n"
           "  \"uart_bytes_in\": %llu,\n  \"uart_bytes_out\": %llu,\n"
           "  \"wdtcsr\": %u,\n"
@@ -316,7 +322,9 @@ void write_json(const Options& o, const Stats& st, const char* variant, double s
           st.ctl_n ? (double)st.ctl_sum / st.ctl_n : 0.0, (unsigned long long)st.tick_max,
           st.ctl_n ? (double)st.tick_sum / st.ctl_n : 0.0, kFreq / RIG_TICK_HZ, ivmin, ivmax,
           st.iv_max_s, jitter, flood_len > 0 ? st.flood_ticks / flood_len : 0.0, st.flood_iv_max * cyc_us,
-          o.fault_at, st.heater_off_s, (unsigned long long)st.ticks_after_fault_with_heat,
+          o.fault_at,
+          st.fault_visible_cycle == UINT64_MAX ? -1.0 : st.fault_visible_cycle / static_cast<double>(kFreq),
+          st.heater_off_s, (unsigned long long)st.ticks_after_fault_with_heat,
           (unsigned long long)st.bytes_in, (unsigned long long)st.bytes_out, st.wdtcsr, st.stack_free, st.sp_min, st.sp_min_run, st.sp_min_pc, st.sp_min_s);
   fclose(f);
 }
@@ -407,7 +415,10 @@ struct Rig {
     plant->step(v, kPlantDt);
     write_truth(t + kPlantDt);
     double mv = sensor_mv(plant->measure());
-    if (opt.fault_at >= 0 && t >= opt.fault_at) mv = opt.fault_mv;
+    if (opt.fault_at >= 0 && t >= opt.fault_at) {
+      mv = opt.fault_mv;
+      if (st.fault_visible_cycle == UINT64_MAX) st.fault_visible_cycle = avr->cycle;
+    }
     avr_raise_irq(adc0, static_cast<uint32_t>(mv + 0.5));
     while (script_pos < script.size() && script[script_pos].t <= t) {
       tx += script[script_pos].text;
@@ -444,6 +455,7 @@ struct Rig {
       const double t = now();
       if (opt.flood_from >= 0 && t >= opt.flood_from && t < opt.flood_to) ++st.flood_ticks;
       st.t_start = c;
+      st.tick_sees_fault = st.fault_visible_cycle != UINT64_MAX && c >= st.fault_visible_cycle + kAdcFaultCycles;
       st.last_tick_s = t;
       ++st.ticks;
     } else if (v == 2) {
@@ -452,8 +464,9 @@ struct Rig {
       st.ctl_sum += d;
       ++st.ctl_n;
       if (opt.fault_at >= 0 && now() >= opt.fault_at) {
-        if (duty() > 0.0) ++st.ticks_after_fault_with_heat;
-        else if (st.heater_off_s < 0) st.heater_off_s = now();
+        if (duty() > 0.0) {
+          if (st.tick_sees_fault) ++st.ticks_after_fault_with_heat;
+        } else if (st.heater_off_s < 0) st.heater_off_s = now();
       }
     } else if (v == 3) {
       const uint64_t d = c - st.t_start;
