@@ -359,184 +359,244 @@ int run(int argc, char** argv) {
                       ") come from the other logs");
   }
 
-  // ---- stage 1: the major loop and the thermal gain, from several starts of h --------------------
-  // A quasi-static ramp fixes mostly G (T - T_amb) products: h and the transformation
-  // temperatures slide along a valley together, and LM from one start can stop far down it. The
-  // major-loop parameters are therefore first fitted alone from h0 x 2^(-1..1), and the best
-  // becomes the start of the full fit.
-  std::string stage1_note;
-  {
-    const char* major[] = {"h", "T_AS", "T_AF", "T_MF", "g", "offset_mm", "T_amb", "gain", "R"};
-    Problem p1 = pb;
-    p1.specs.clear();
-    p1.x0.clear();
-    bool has_h = false;
-    for (size_t i = 0; i < pb.specs.size(); ++i)
-      for (const char* mname : major)
-        if (pb.specs[i].name == mname || (!pb.specs[i].ref && std::string(mname) == "offset_mm")) {
-          p1.specs.push_back(pb.specs[i]);
-          has_h = has_h || pb.specs[i].name == "h";
+  // ---- the minor-loop band: two structures, the better kept --------------------------------------
+  // Tied (identify.hpp tie_to_bands): T_s, T_f, the loops and T_MSs, T_MSf move with the fitted
+  // transformation bands, as on a wire whose whole hysteresis is shifted. Kept: they stay at the
+  // start's temperatures, as on a wire whose major loop moved but whose minor loops did not. Which
+  // one a wire is cannot be known before the fit; the fit runs both (stage 1 and LM) and keeps
+  // the tied one unless the other explains the log clearly better (the report says which).
+  struct Outcome {
+    Problem pb;
+    std::vector<std::string> notes;
+    std::string stage1_note;
+    Eigen::VectorXd x, f_start;
+    int status = 0;
+    long iter = 0;
+    double sse = INFINITY;
+  };
+  const Problem pb_in = pb;
+  const std::vector<std::string> notes_in = notes;
+  auto fit_structure = [&](bool tie) {
+    Problem fp = pb_in;
+    fp.tie_bands = tie;
+    std::vector<std::string> fnotes = notes_in;
+    // ---- stage 1: the major loop and the thermal gain, from several starts of h --------------------
+    // A quasi-static ramp fixes mostly G (T - T_amb) products: h and the transformation
+    // temperatures slide along a valley together, and LM from one start can stop far down it. The
+    // major-loop parameters are therefore first fitted alone from h0 x 2^(-1..1), and the best
+    // becomes the start of the full fit.
+    std::string stage1_note;
+    {
+      const char* major[] = {"h", "T_AS", "T_AF", "T_MF", "g", "offset_mm", "T_amb", "gain", "R"};
+      Problem p1 = fp;
+      p1.specs.clear();
+      p1.x0.clear();
+      bool has_h = false;
+      for (size_t i = 0; i < fp.specs.size(); ++i)
+        for (const char* mname : major)
+          if (fp.specs[i].name == mname || (!fp.specs[i].ref && std::string(mname) == "offset_mm")) {
+            p1.specs.push_back(fp.specs[i]);
+            has_h = has_h || fp.specs[i].name == "h";
+          }
+      if (p1.specs.size() >= 1 && p1.specs.size() < fp.specs.size()) {
+        std::vector<double> mults = {1.0};
+        if (has_h) mults = {1.0, 0.5, 0.63, 0.79, 1.26, 1.59, 2.0};
+        double best_sse = INFINITY;
+        Model best = fp.start;
+        std::vector<double> best_run_offset = fp.run_offset;
+        double best_mult = 1.0;
+        for (double mult : mults) {
+          p1.start = fp.start;
+          p1.start.p.h = fp.start.p.h * mult;
+          p1.x0.clear();
+          for (const auto& sp : p1.specs)
+            p1.x0.push_back(sp.ref ? *sp.ref(p1.start, sp.index) : fp.run_offset[static_cast<size_t>(sp.index) - 1]);
+          LmFunctor f1{&p1};
+          Eigen::VectorXd x1 = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(p1.specs.size()));
+          Eigen::LevenbergMarquardt<LmFunctor> lm1(f1);
+          lm1.parameters.maxfev = 60;
+          lm1.parameters.xtol = 1e-5;
+          lm1.parameters.ftol = 1e-6;
+          lm1.parameters.factor = 10.0;
+          sma_host::minimize_reporting(lm1, x1, "fit stage 1");
+          Eigen::VectorXd r1;
+          const Model m1 = p1.model_at(x1);
+          if (!p1.residual_at(x1, r1)) continue;
+          if (r1.squaredNorm() < best_sse) {
+            best_sse = r1.squaredNorm();
+            best = m1;
+            best_mult = mult;
+            for (size_t r = 1; r < logs.size(); ++r) best_run_offset[r - 1] = p1.model_for_run(m1, x1, r).fx.sensor_offset_mm;
+          }
         }
-    if (p1.specs.size() >= 1 && p1.specs.size() < pb.specs.size()) {
-      std::vector<double> mults = {1.0};
-      if (has_h) mults = {1.0, 0.5, 0.63, 0.79, 1.26, 1.59, 2.0};
-      double best_sse = INFINITY;
-      Model best = pb.start;
-      std::vector<double> best_run_offset = pb.run_offset;
-      double best_mult = 1.0;
-      for (double mult : mults) {
-        p1.start = pb.start;
-        p1.start.p.h = pb.start.p.h * mult;
-        p1.x0.clear();
-        for (const auto& sp : p1.specs)
-          p1.x0.push_back(sp.ref ? *sp.ref(p1.start, sp.index) : pb.run_offset[static_cast<size_t>(sp.index) - 1]);
-        LmFunctor f1{&p1};
-        Eigen::VectorXd x1 = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(p1.specs.size()));
-        Eigen::LevenbergMarquardt<LmFunctor> lm1(f1);
-        lm1.parameters.maxfev = 60;
-        lm1.parameters.xtol = 1e-5;
-        lm1.parameters.ftol = 1e-6;
-        lm1.parameters.factor = 10.0;
-        sma_host::minimize_reporting(lm1, x1, "fit stage 1");
-        Eigen::VectorXd r1;
-        const Model m1 = p1.model_at(x1);
-        if (!p1.residual_at(x1, r1)) continue;
-        if (r1.squaredNorm() < best_sse) {
-          best_sse = r1.squaredNorm();
-          best = m1;
-          best_mult = mult;
-          for (size_t r = 1; r < logs.size(); ++r) best_run_offset[r - 1] = p1.model_for_run(m1, x1, r).fx.sensor_offset_mm;
-        }
+        fp.runs += p1.runs;
+        fp.start = best;
+        fp.run_offset = best_run_offset;
+        for (size_t i = 0; i < fp.specs.size(); ++i)
+          fp.x0[i] = fp.specs[i].ref ? *fp.specs[i].ref(best, fp.specs[i].index)
+                                     : fp.run_offset[static_cast<size_t>(fp.specs[i].index) - 1];
+        stage1_note = "stage 1 (major loop";
+        stage1_note += has_h ? ", best of 7 starts of h: x" + fixed(best_mult, 2) + ")" : ")";
+        stage1_note += ": RMS " + fmt(std::sqrt(best_sse / static_cast<double>(fp.rows()))) + " mm";
       }
-      pb.runs += p1.runs;
-      pb.start = best;
-      pb.run_offset = best_run_offset;
-      for (size_t i = 0; i < pb.specs.size(); ++i)
-        pb.x0[i] = pb.specs[i].ref ? *pb.specs[i].ref(best, pb.specs[i].index)
-                                   : pb.run_offset[static_cast<size_t>(pb.specs[i].index) - 1];
-      stage1_note = "stage 1 (major loop";
-      stage1_note += has_h ? ", best of 7 starts of h: x" + fixed(best_mult, 2) + ")" : ")";
-      stage1_note += ": RMS " + fmt(std::sqrt(best_sse / static_cast<double>(pb.rows()))) + " mm";
     }
-  }
 
-  // ---- loop knots at the log's reversals -----------------------------------------------------------
-  // j and T_ii are only observed at the peak temperatures T_i the log reverses at; the model
-  // interpolates them between knots. As in the paper (T_1..T_5 of Fig. 5 are the training's
-  // reversals), the knots are put at the reversals of the stage-1 model's temperature inside
-  // (T_s, T_f), so each fitted j_i, T_ii belongs to a loop the log really ran.
-  if (fit_list.empty() && loops_at_reversals) {
-    Trace tr1;
-    ReplayOptions o;
-    o.eps0 = eps0;
-    replay(pb.start, log.t, log.v, log.d, o, tr1);
-    std::vector<double> peaks;
-    const double thr = 3.0;  // K: a reversal is a fall of at least this much after a peak
-    double cand = tr1.T[0], low = tr1.T[0];
-    bool rising = true;
-    for (double T : tr1.T) {
-      if (rising) {
-        if (T > cand) cand = T;
-        if (T < cand - thr) {
-          peaks.push_back(cand);
-          rising = false;
-          low = T;
-        }
-      } else {
-        if (T < low) low = T;
-        if (T > low + thr) {
-          rising = true;
-          cand = T;
+    // ---- loop knots at the log's reversals -----------------------------------------------------------
+    // j and T_ii are only observed at the peak temperatures T_i the log reverses at; the model
+    // interpolates them between knots. As in the paper (T_1..T_5 of Fig. 5 are the training's
+    // reversals), the knots are put at the reversals of the stage-1 model's temperature inside
+    // (T_s, T_f), so each fitted j_i, T_ii belongs to a loop the log really ran.
+    if (fit_list.empty() && loops_at_reversals) {
+      Trace tr1;
+      ReplayOptions o;
+      o.eps0 = eps0;
+      replay(fp.start, log.t, log.v, log.d, o, tr1);
+      std::vector<double> peaks;
+      const double thr = 3.0;  // K: a reversal is a fall of at least this much after a peak
+      double cand = tr1.T[0], low = tr1.T[0];
+      bool rising = true;
+      for (double T : tr1.T) {
+        if (rising) {
+          if (T > cand) cand = T;
+          if (T < cand - thr) {
+            peaks.push_back(cand);
+            rising = false;
+            low = T;
+          }
+        } else {
+          if (T < low) low = T;
+          if (T > low + thr) {
+            rising = true;
+            cand = T;
+          }
         }
       }
-    }
-    const sma::Params& P = pb.start.p;
-    std::vector<double> inner;
-    for (double T : peaks)
-      if (T > P.T_s + 0.5 && T < P.T_f - 0.5) inner.push_back(T);
-    std::sort(inner.begin(), inner.end());
-    std::vector<double> knots;
-    for (double T : inner)
-      if (knots.empty() || T - knots.back() > 1.0) knots.push_back(T);
-    while (knots.size() > sma::kMaxLoopKnots) {  // drop the knot closest to its neighbour
-      size_t worst = 1;
-      for (size_t i = 1; i < knots.size(); ++i)
-        if (knots[i] - knots[i - 1] < knots[worst] - knots[worst - 1]) worst = i;
-      knots.erase(knots.begin() + static_cast<long>(worst));
-    }
-    if (!knots.empty()) {
-      double jmean = 0;
-      for (int k = 0; k < P.n_loops; ++k) jmean += P.loops[k].j / P.n_loops;
-      if (!(jmean > 0.01)) jmean = 0.1;
-      Model m = pb.start;
-      m.p.n_loops = static_cast<uint8_t>(knots.size());
-      std::string list;
-      for (size_t k = 0; k < knots.size(); ++k) {
-        m.p.loops[k] = {knots[k], knots[k] - 2.0, jmean};
-        list += (k ? ", " : "") + fixed(knots[k], 1);
+      const sma::Params& P = fp.start.p;
+      std::vector<double> inner;
+      for (double T : peaks)
+        if (T > P.T_s + 0.5 && T < P.T_f - 0.5) inner.push_back(T);
+      std::sort(inner.begin(), inner.end());
+      std::vector<double> knots;
+      for (double T : inner)
+        if (knots.empty() || T - knots.back() > 1.0) knots.push_back(T);
+      while (knots.size() > sma::kMaxLoopKnots) {  // drop the knot closest to its neighbour
+        size_t worst = 1;
+        for (size_t i = 1; i < knots.size(); ++i)
+          if (knots[i] - knots[i - 1] < knots[worst] - knots[worst - 1]) worst = i;
+        knots.erase(knots.begin() + static_cast<long>(worst));
       }
-      pb.start = m;
+      if (!knots.empty()) {
+        double jmean = 0;
+        for (int k = 0; k < P.n_loops; ++k) jmean += P.loops[k].j / P.n_loops;
+        if (!(jmean > 0.01)) jmean = 0.1;
+        Model m = fp.start;
+        m.p.n_loops = static_cast<uint8_t>(knots.size());
+        std::string list;
+        for (size_t k = 0; k < knots.size(); ++k) {
+          m.p.loops[k] = {knots[k], knots[k] - 2.0, jmean};
+          list += (k ? ", " : "") + fixed(knots[k], 1);
+        }
+        fp.start = m;
+        std::vector<ParamSpec> keep;
+        std::vector<double> keep_x0;
+        for (size_t i = 0; i < fp.specs.size(); ++i)
+          if (fp.specs[i].ref != ref::j && fp.specs[i].ref != ref::Tii) {
+            keep.push_back(fp.specs[i]);
+            keep_x0.push_back(fp.specs[i].ref ? *fp.specs[i].ref(m, fp.specs[i].index) : fp.x0[i]);
+          }
+        for (const ParamSpec& sp : all_specs(m))
+          if (sp.ref == ref::j || sp.ref == ref::Tii) {
+            keep.push_back(sp);
+            keep_x0.push_back(*sp.ref(m, sp.index));
+          }
+        fp.specs = keep;
+        fp.x0 = keep_x0;
+        fnotes.push_back("loop knots T_i moved to the log's reversals inside (T_s, T_f) = (" + fixed(P.T_s, 1) +
+                        ", " + fixed(P.T_f, 1) + ") of the stage-1 model: " + list +
+                        " degC");
+      }
+    }
+
+    // Drop what this log does not excite (a zero column of the Jacobian after stage 1).
+    LmFunctor fun{&fp};
+    {
+      Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(fp.specs.size()));
+      Eigen::MatrixXd J;
+      fun.df(x, J);
+      const double colmax = J.colwise().norm().maxCoeff();
       std::vector<ParamSpec> keep;
       std::vector<double> keep_x0;
-      for (size_t i = 0; i < pb.specs.size(); ++i)
-        if (pb.specs[i].ref != ref::j && pb.specs[i].ref != ref::Tii) {
-          keep.push_back(pb.specs[i]);
-          keep_x0.push_back(pb.specs[i].ref ? *pb.specs[i].ref(m, pb.specs[i].index) : pb.x0[i]);
+      for (size_t i = 0; i < fp.specs.size(); ++i) {
+        if (J.col(static_cast<Eigen::Index>(i)).norm() <= 1e-9 * colmax) {
+          const ParamSpec& sp = fp.specs[i];
+          const bool tied = sp.ref == ref::Tii || sp.ref == ref::TMSs || sp.ref == ref::TMSf || sp.ref == ref::Ts ||
+                            sp.ref == ref::Tf;
+          fnotes.push_back(sp.name + ": not fitted: this log does not excite it (no sensitivity after stage 1); " +
+                          (tied ? std::string("it follows its transformation band from ") + fmt(fp.x0[i], 6)
+                                : "kept at its start value " + fmt(fp.x0[i], 6)));
+        } else {
+          keep.push_back(fp.specs[i]);
+          keep_x0.push_back(fp.x0[i]);
         }
-      for (const ParamSpec& sp : all_specs(m))
-        if (sp.ref == ref::j || sp.ref == ref::Tii) {
-          keep.push_back(sp);
-          keep_x0.push_back(*sp.ref(m, sp.index));
-        }
-      pb.specs = keep;
-      pb.x0 = keep_x0;
-      notes.push_back("loop knots T_i moved to the log's reversals inside (T_s, T_f) = (" + fixed(P.T_s, 1) +
-                      ", " + fixed(P.T_f, 1) + ") of the stage-1 model: " + list +
-                      " degC");
-    }
-  }
-
-  // Drop what this log does not excite (a zero column of the Jacobian after stage 1).
-  LmFunctor fun{&pb};
-  {
-    Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(pb.specs.size()));
-    Eigen::MatrixXd J;
-    fun.df(x, J);
-    const double colmax = J.colwise().norm().maxCoeff();
-    std::vector<ParamSpec> keep;
-    std::vector<double> keep_x0;
-    for (size_t i = 0; i < pb.specs.size(); ++i) {
-      if (J.col(static_cast<Eigen::Index>(i)).norm() <= 1e-9 * colmax) {
-        const ParamSpec& sp = pb.specs[i];
-        const bool tied = sp.ref == ref::Tii || sp.ref == ref::TMSs || sp.ref == ref::TMSf || sp.ref == ref::Ts ||
-                          sp.ref == ref::Tf;
-        notes.push_back(sp.name + ": not fitted: this log does not excite it (no sensitivity after stage 1); " +
-                        (tied ? std::string("it follows its transformation band from ") + fmt(pb.x0[i], 6)
-                              : "kept at its start value " + fmt(pb.x0[i], 6)));
-      } else {
-        keep.push_back(pb.specs[i]);
-        keep_x0.push_back(pb.x0[i]);
       }
+      fp.specs = keep;
+      fp.x0 = keep_x0;
+      if (fp.specs.empty()) throw Error(log.name + ": no parameter is excited by this log");
     }
-    pb.specs = keep;
-    pb.x0 = keep_x0;
-    if (pb.specs.empty()) throw Error(log.name + ": no parameter is excited by this log");
-  }
-  const size_t np = pb.specs.size();
-  if (pb.rows() < 3 * np)
-    throw Error(log.name + ": too few samples (" + std::to_string(pb.rows()) + ") for " +
-                std::to_string(np) + " parameters");
+    const size_t np = fp.specs.size();
+    if (fp.rows() < 3 * np)
+      throw Error(log.name + ": too few samples (" + std::to_string(fp.rows()) + ") for " +
+                  std::to_string(np) + " parameters");
 
-  // ---- Levenberg-Marquardt -----------------------------------------------------------------------
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(np));
-  Eigen::VectorXd f_start;
-  pb.residual_at(x, f_start);
-  Eigen::LevenbergMarquardt<LmFunctor> lm(fun);
-  lm.parameters.maxfev = max_evals / static_cast<long>(np + 1) + 5;  // LM counts residual calls
-  lm.parameters.xtol = 1e-6;
-  lm.parameters.ftol = 1e-8;
-  lm.parameters.factor = 10.0;
-  const int status = sma_host::minimize_reporting(lm, x, "fit");
+    // ---- Levenberg-Marquardt -----------------------------------------------------------------------
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(np));
+    Eigen::VectorXd f_start;
+    fp.residual_at(x, f_start);
+    Eigen::LevenbergMarquardt<LmFunctor> lm(fun);
+    lm.parameters.maxfev = max_evals / static_cast<long>(np + 1) + 5;  // LM counts residual calls
+    lm.parameters.xtol = 1e-6;
+    lm.parameters.ftol = 1e-8;
+    lm.parameters.factor = 10.0;
+    const int status = sma_host::minimize_reporting(lm, x, "fit");
+    Outcome o;
+    Eigen::VectorXd f_end;
+    if (fp.residual_at(x, f_end)) o.sse = f_end.squaredNorm();
+    o.pb = fp;
+    o.notes = fnotes;
+    o.stage1_note = stage1_note;
+    o.x = x;
+    o.f_start = f_start;
+    o.status = status;
+    o.iter = lm.iter;
+    return o;
+  };
+  const bool tie_matters = !(pb_in.fitted(ref::Ts) && pb_in.fitted(ref::Tf));
+  Outcome best = fit_structure(true);
+  std::string band_note;
+  if (tie_matters) {
+    Outcome kept = fit_structure(false);
+    const double rms_t = std::sqrt(best.sse / static_cast<double>(best.pb.rows()));
+    const double rms_k = std::sqrt(kept.sse / static_cast<double>(kept.pb.rows()));
+    // The tie is the prior (a shifted wire shifts as a whole); keeping the start's band must
+    // explain the log clearly better (RMS at least 10 % lower), not by noise.
+    const bool keep_start = rms_k < 0.9 * rms_t;
+    band_note = std::string("minor-loop band ") +
+                (keep_start ? "kept at the start's temperatures" : "tied to the fitted transformation bands") +
+                (keep_start ? ": it explains the log clearly better (RMS " : ": the prior, kept unless the other explains the log clearly better (RMS ") +
+                fmt(keep_start ? rms_k : rms_t) + " mm against " +
+                fmt(keep_start ? rms_t : rms_k) + " mm " + (keep_start ? "tied" : "kept") + ")";
+    if (keep_start) best = kept;
+  }
+  pb = best.pb;
+  notes = best.notes;
+  if (!band_note.empty()) notes.push_back(band_note);
+  const std::string stage1_note = best.stage1_note;
+  LmFunctor fun{&pb};
+  const size_t np = pb.specs.size();
+  Eigen::VectorXd x = best.x;
+  const Eigen::VectorXd f_start = best.f_start;
+  const int status = best.status;
+  const long lm_iter = best.iter;
   Model fitted = pb.model_at(x);
   check_model(fitted, "fitted parameters");
 
@@ -602,7 +662,8 @@ int run(int argc, char** argv) {
     notes.push_back("minor-loop band T_s..T_f = " + fixed(fitted.p.T_s, 2) + ".." + fixed(fitted.p.T_f, 2) +
                     " degC (start " + fixed(start.p.T_s, 2) + ".." + fixed(start.p.T_f, 2) +
                     "), T_MSs, T_MSf = " + fixed(fitted.p.T_MSs, 2) + ", " + fixed(fitted.p.T_MSf, 2) +
-                    " degC: tied to the fitted transformation bands where not fitted themselves");
+                    (pb.tie_bands ? " degC: tied to the fitted transformation bands where not fitted themselves"
+                                  : " degC: kept at the start's where not fitted themselves"));
   for (const auto& w : sma_host::plausibility_warnings(fitted.p, fitted.fx)) {
     std::cerr << "sma_fit: warning: " << w << "\n";
     notes.push_back("warning: " + w);
@@ -719,7 +780,7 @@ int run(int argc, char** argv) {
     f << "{\n  \"log\": " << json::quote(log.name) << ",\n  \"rows\": " << log.size()
       << ",\n  \"dropped_rows\": " << log.dropped << ",\n  \"start_params\": " << json::quote(start_name)
       << ",\n  \"residual_samples\": " << pb.rows() << ",\n  \"stride\": " << pb.stride
-      << ",\n  \"model_runs\": " << pb.runs << ",\n  \"lm_iterations\": " << lm.iter
+      << ",\n  \"model_runs\": " << pb.runs << ",\n  \"lm_iterations\": " << lm_iter
       << ",\n  \"lm_status\": " << json::quote(status_str) << ",\n  \"converged\": " << (converged ? "true" : "false")
       << ",\n  \"rms_mm\": " << json::number(full.rms) << ",\n  \"max_mm\": " << json::number(full.max)
       << ",\n  \"rms_mm_start\": " << json::number(st0.rms) << ",\n  \"max_mm_start\": " << json::number(st0.max)
@@ -773,7 +834,7 @@ int run(int argc, char** argv) {
     f << ".\nStart values: " << start_name << ". Method: Levenberg-Marquardt (Eigen) on the displacement "
       << "residual of the library's simulated plant driven by the log's v_V, " << pb.rows()
       << " residual samples (one row in " << pb.stride << "), " << pb.runs << " model runs, "
-      << lm.iter << " iterations of the full fit: " << status_str << (converged ? "." : " (NOT converged).")
+      << lm_iter << " iterations of the full fit: " << status_str << (converged ? "." : " (NOT converged).")
       << (stage1_note.empty() ? "" : " Before it, " + stage1_note + ".") << "\n\n";
     f << "## Fit quality\n\n| | RMS error (mm) | max error (mm) |\n|---|---|---|\n";
     f << "| start parameters | " << fmt(st0.rms) << " | " << fmt(st0.max) << " |\n";
