@@ -100,7 +100,7 @@ class Board {
     v_.x.waiting_ = LineStatus::Pending;
     if (st == LineStatus::Line) {
       console::Command c;
-      const bool tele_before = state_.s.tele;
+      const bool rows_before = state_.s.tele && !state_.s.plot;
       if (console::execute(line_.x.line(), state_.s, safety_.fault(), reply_.x, limits(), &c)) {
         if (c.op == console::Op::Status) console::status_line(reply_.x, state_.s, live_.x);
         if (Rig::model() && console::is_model_op(c.op)) {  // run_model_op() replies
@@ -109,7 +109,7 @@ class Board {
           v_.x.model_a_ = static_cast<float>(c.a);
           return;
         }
-        apply(c, tele_before);
+        apply(c, rows_before);
       }
     } else if (st != LineStatus::Pending) {
       console::line_error(st, reply_.x);
@@ -194,14 +194,15 @@ class Board {
   // After control() (and the PWM written): the tick's telemetry row and fault announcement.
   SMA_NOINLINE void report() {
     if (state_.s.tele) {
-      if (v_.x.header_due_) {
+      if (v_.x.header_due_ && !state_.s.plot) {
         reply_.x.clear();
         reply_.x.put_f(console::telemetry_header());
         send();
         v_.x.header_due_ = false;
       }
       console::telemetry_row(reply_.x, v_.x.ticks_, static_cast<uint16_t>(Rig::tick_hz()), live_.x.v, live_.x.d_mm,
-                             live_.x.ref_mm, static_cast<float>(v_.x.counts_) / static_cast<float>(Rig::pwm_top() + 1UL));
+                             live_.x.ref_mm, static_cast<float>(v_.x.counts_) / static_cast<float>(Rig::pwm_top() + 1UL),
+                             state_.s.plot);
       send();
     }
     ++v_.x.ticks_;
@@ -498,7 +499,8 @@ class Board {
 
   // The controller, the latch and the reference follow an OK'd command: each setting only when
   // this command sets it.
-  SMA_NOINLINE void apply(const console::Command& c, bool tele_before) {
+  // `rows_before`: rig-log rows were streaming before this command (their header was sent).
+  SMA_NOINLINE void apply(const console::Command& c, bool rows_before) {
     using console::Op;
     if (c.op == Op::Stop) safety_.clear();
     if (c.op == Op::Tlim) safety_.set_limit(state_.s.tlim_C);
@@ -511,7 +513,8 @@ class Board {
       start_reference();
       v_.x.run_start_ = v_.x.ticks_;
     }
-    if (c.op == Op::Tele && c.on && !tele_before) v_.x.header_due_ = true;  // once per start
+    // The header once per start of the rows (tele on after off or plot).
+    if (c.op == Op::Tele && state_.s.tele && !state_.s.plot && !rows_before) v_.x.header_due_ = true;
     if (Rig::train() && c.op == Op::Train) start_training(c.a);
     // A training run replaced by another command: its storage back to a generator.
     if (v_.x.training_ && !state_.s.training) {
