@@ -65,6 +65,8 @@ def enforce(rows, ratchet):
                 failures.append("%s %s = %s: over budget (%s) and no ratchet in %s" % (r["image"], fig, v, b, RATCHET))
             elif within(v, lim, larger_better):
                 print("%s %s = %s: over budget (issue 12): budget %s, ratchet %s" % (r["image"], fig, v, b, lim))
+            elif within(lim, b, larger_better):
+                failures.append("%s %s = %s: breaks the budget %s (issue 12), met before (%s)" % (r["image"], fig, v, b, lim))
             else:
                 failures.append("%s %s = %s: worse than the ratchet %s (budget %s)" % (r["image"], fig, v, lim, b))
     return failures
