@@ -4,11 +4,17 @@ control section's worst cycles and the stack margin (tools/vrig --cycles-json on
 deepest path: console lines, telemetry, a sine, pbegin/pset/pcommit while ticking, a sensor fault).
 
     bench/budgets.py --build build [--json build/bench-results/budgets.json] [--strict]
+                     [--enforce] [--update-ratchet]
 
 Budgets (issue 12): flash <= 28672 B, static RAM <= 1536 B, stack margin >= 256 B, float control
-section <= 16000 cycles, Q16.16 control section <= half of float's. Prints a table; --strict
-exits 1 when a budget is broken (the build's own hard limits are firmware/check_size.cmake).
-Standard library only.
+section <= 16000 cycles, Q16.16 control section <= half of float's. Prints a table.
+--enforce (CTest bench_budgets): exits 1 when an image breaks a budget it meets today's ratchet
+  for: a figure within its budget must stay within it; a figure still over budget must not get
+  worse than its ratchet in bench/budgets_ratchet.json (printed "over budget (issue 12)").
+--update-ratchet: tightens bench/budgets_ratchet.json to today's figures (never loosens it).
+--strict: exits 1 on any broken budget (the issue's "done when").
+The build itself fails on flash/RAM above the ratchet (firmware/check_size.cmake reads the same
+file). Standard library only.
 """
 import argparse
 import json
@@ -18,6 +24,65 @@ import sys
 import tempfile
 
 FLASH_MAX, RAM_MAX, STACK_MIN, CYCLES_MAX = 28672, 1536, 256, 16000
+RATCHET = os.path.join(os.path.dirname(os.path.abspath(__file__)), "budgets_ratchet.json")
+# figure -> True when larger is better (the stack margin), False when smaller is (the rest)
+FIGURES = {"flash_B": False, "static_ram_B": False, "stack_margin_B": True, "control_cycles_max": False}
+
+
+def budget_of(row, fig, float_row):
+    """The issue's budget of one figure of one image."""
+    if fig == "flash_B":
+        return FLASH_MAX
+    if fig == "static_ram_B":
+        return RAM_MAX
+    if fig == "stack_margin_B":
+        return STACK_MIN
+    if row["image"] == "sma_firmware_fixed" and float_row:
+        return 0.5 * float_row["control_cycles_max"]
+    return CYCLES_MAX
+
+
+def within(value, limit, larger_better):
+    return value >= limit if larger_better else value <= limit
+
+
+def enforce(rows, ratchet):
+    """Failures: a figure that meets its budget must keep meeting it; one over budget must not get
+    worse than its ratchet (missing ratchet: today's value is printed to add). Prints a line each."""
+    fl = next((r for r in rows if r["image"] == "sma_firmware"), None)
+    failures = []
+    for r in rows:
+        rr = ratchet.get(r["image"], {})
+        for fig, larger_better in FIGURES.items():
+            v, b = r[fig], budget_of(r, fig, fl)
+            if v is None:
+                failures.append("%s %s: not measured" % (r["image"], fig))
+                continue
+            if within(v, b, larger_better):
+                continue
+            lim = rr.get(fig)
+            if lim is None:
+                failures.append("%s %s = %s: over budget (%s) and no ratchet in %s" % (r["image"], fig, v, b, RATCHET))
+            elif within(v, lim, larger_better):
+                print("%s %s = %s: over budget (issue 12): budget %s, ratchet %s" % (r["image"], fig, v, b, lim))
+            elif within(lim, b, larger_better):
+                failures.append("%s %s = %s: breaks the budget %s (issue 12), met before (%s)" % (r["image"], fig, v, b, lim))
+            else:
+                failures.append("%s %s = %s: worse than the ratchet %s (budget %s)" % (r["image"], fig, v, lim, b))
+    return failures
+
+
+def update_ratchet(rows, ratchet):
+    """Today's figures into the ratchet where they are better (or new); never loosened."""
+    for r in rows:
+        rr = ratchet.setdefault(r["image"], {})
+        for fig, larger_better in FIGURES.items():
+            v = r[fig]
+            if v is not None and (fig not in rr or within(v, rr[fig], larger_better)):
+                rr[fig] = v
+    with open(RATCHET, "w") as f:
+        json.dump(ratchet, f, indent=2, sort_keys=True)
+        f.write("\n")
 
 # Every feature of an image at once: telemetry, a reference, console lines, the model store
 # (where the image has it), the training run (where it has it), then a sensor fault while heating.
@@ -62,6 +127,9 @@ def main():
     ap.add_argument("--build", default="build")
     ap.add_argument("--json", default=None)
     ap.add_argument("--strict", action="store_true", help="exit 1 when a budget is broken")
+    ap.add_argument("--enforce", action="store_true",
+                    help="exit 1 when a budget met today, or a ratchet (bench/budgets_ratchet.json), is broken")
+    ap.add_argument("--update-ratchet", action="store_true", help="tighten bench/budgets_ratchet.json to today")
     a = ap.parse_args()
     fw = os.path.join(a.build, "firmware")
     vrig = os.path.join(a.build, "tools", "vrig", "vrig")
@@ -108,6 +176,17 @@ def main():
             json.dump({"budgets": {"flash_B": FLASH_MAX, "static_ram_B": RAM_MAX, "stack_margin_B": STACK_MIN,
                                    "control_cycles_float": CYCLES_MAX, "fixed_vs_float": 0.5},
                        "images": rows, "broken": broken}, f, indent=2)
+    with open(RATCHET) as f:
+        ratchet = json.load(f)
+    if a.update_ratchet:
+        update_ratchet(rows, ratchet)
+        print("ratchet written: %s" % RATCHET)
+    if a.enforce:
+        failures = enforce(rows, ratchet)
+        for m in failures:
+            print("BUDGET BROKEN: %s" % m)
+        if failures:
+            return 1
     return 1 if (a.strict and broken) else 0
 
 

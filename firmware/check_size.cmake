@@ -1,7 +1,10 @@
 # Fails the build when a firmware image does not fit the Uno: flash (.text + .data) must leave
 # the 512-B Optiboot bootloader alone (32256 B), and static RAM (.data + .bss) must leave room
 # for the stack (the FIL tests measure the deepest stack, ~400 B). Called after each link with
-#   cmake -DAVR_SIZE=... -DELF=... -P check_size.cmake
+#   cmake -DAVR_SIZE=... -DELF=... [-DIMAGE=sma_firmware -DRATCHET=bench/budgets_ratchet.json] -P check_size.cmake
+# With IMAGE and RATCHET it also enforces issue 12's budgets (flash <= 28672 B, static RAM <= 1536
+# B): a figure within its budget must stay within it, one still over it must not exceed its
+# ratchet (today's value, bench/budgets.py --update-ratchet tightens it).
 execute_process(COMMAND ${AVR_SIZE} ${ELF} OUTPUT_VARIABLE out RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "avr-size failed on ${ELF}")
@@ -18,4 +21,30 @@ if(flash GREATER flash_max)
 endif()
 if(ram GREATER ram_max)
   message(FATAL_ERROR "${ELF}: ${ram} B of static RAM leave less than 348 B for the stack")
+endif()
+
+# Issue 12's budgets, with the ratchet for a figure not met yet (bench/budgets.py reads the same file).
+if(IMAGE AND RATCHET AND CMAKE_VERSION VERSION_LESS 3.19)
+  message(WARNING "CMake ${CMAKE_VERSION} < 3.19 cannot read ${RATCHET}: issue 12's budgets not enforced at link")
+elseif(IMAGE AND RATCHET AND EXISTS ${RATCHET})
+  file(READ ${RATCHET} ratchet_json)
+  foreach(fig flash_B static_ram_B)
+    if(fig STREQUAL "flash_B")
+      set(value ${flash})
+      set(budget 28672)
+    else()
+      set(value ${ram})
+      set(budget 1536)
+    endif()
+    if(value GREATER budget)
+      string(JSON limit ERROR_VARIABLE no_limit GET "${ratchet_json}" ${IMAGE} ${fig})
+      if(no_limit)
+        message(FATAL_ERROR "${ELF}: ${fig} ${value} over budget (${budget}, issue 12) and no ratchet in ${RATCHET}")
+      elseif(value GREATER limit)
+        message(FATAL_ERROR "${ELF}: ${fig} ${value} worse than its ratchet ${limit} (budget ${budget}, issue 12; ${RATCHET})")
+      else()
+        message(STATUS "${ELF}: ${fig} ${value}: over budget (issue 12): budget ${budget}, ratchet ${limit}")
+      endif()
+    endif()
+  endforeach()
 endif()

@@ -9,8 +9,9 @@
 //   1 = control section starts, 2 = control section ends (PWM written),
 //   3 = telemetry/console output of the tick ends.
 // Scalar type: float, or sma::Fixed (Q16.16) when built with -DSMA_FIRMWARE_FIXED.
-// The library first: Arduino.h defines min, max, abs, round... as macros, which would break
-// the library's templates of the same names if they came after it.
+// No Arduino core: the firmware uses none of its timers (Timer0's millis ISR would only steal
+// cycles from the tick) and its own 115200-baud UART below (HardwareSerial's virtual Print
+// interface costs ~1 KB of flash and ~50 B of RAM it does not need).
 #include "rig_board.h"
 #include "sma/board.hpp"
 #ifdef SMA_FIRMWARE_FIXED
@@ -22,16 +23,10 @@ typedef float Scalar;
 #define FW_VARIANT "float"
 #endif
 
-#include <Arduino.h>
-#include <new.h>
 #include <avr/eeprom.h>
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include <avr/wdt.h>
-#undef min
-#undef max
-#undef abs
-#undef round
 
 
 // ---- reset cause: saved before anything else runs ----------------------------------------------
@@ -85,6 +80,74 @@ ISR(ADC_vect) {
   ADCSRA |= _BV(ADSC);  // next conversion (13 ADC clocks at 125 kHz: 104 us)
 }
 
+// ---- UART0: interrupt-driven rings, 8N1 --------------------------------------------------------
+// The RX ring holds the next line while the board waits for a slot (3 ms + a tick at 115200 baud:
+// ~70 bytes); the TX ring holds the longest reply (111 chars) so that a reply never blocks loop().
+#ifndef SERIAL_TX_BUFFER_SIZE
+#define SERIAL_TX_BUFFER_SIZE 128
+#endif
+#ifndef SERIAL_RX_BUFFER_SIZE
+#define SERIAL_RX_BUFFER_SIZE 64
+#endif
+static_assert((SERIAL_TX_BUFFER_SIZE & (SERIAL_TX_BUFFER_SIZE - 1)) == 0 && SERIAL_TX_BUFFER_SIZE <= 256,
+              "TX ring: a power of two up to 256");
+static_assert((SERIAL_RX_BUFFER_SIZE & (SERIAL_RX_BUFFER_SIZE - 1)) == 0 && SERIAL_RX_BUFFER_SIZE <= 256,
+              "RX ring: a power of two up to 256");
+namespace uart {
+static volatile uint8_t rx_buf[SERIAL_RX_BUFFER_SIZE];
+static volatile uint8_t tx_buf[SERIAL_TX_BUFFER_SIZE];
+static volatile uint8_t rx_head = 0, rx_tail = 0, tx_head = 0, tx_tail = 0;  // head: next write
+
+// U2X mode, the divisor rounded as the Arduino core does (115200 baud: UBRR 16, +2.1 %).
+static void begin(unsigned long baud) {
+  const uint16_t ubrr = static_cast<uint16_t>((F_CPU / 4 / baud - 1) / 2);
+  UCSR0A = _BV(U2X0);
+  UBRR0H = static_cast<uint8_t>(ubrr >> 8);
+  UBRR0L = static_cast<uint8_t>(ubrr);
+  UCSR0C = _BV(UCSZ01) | _BV(UCSZ00);
+  UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
+}
+static uint8_t tx_free() {
+  return static_cast<uint8_t>((SERIAL_TX_BUFFER_SIZE - 1) - ((tx_head - tx_tail) & (SERIAL_TX_BUFFER_SIZE - 1)));
+}
+// Waits while the ring is full (the UDRE interrupt drains it; with interrupts off, by polling).
+static void put(uint8_t c) {
+  while (tx_free() == 0) {
+    if (!(SREG & _BV(SREG_I)) && (UCSR0A & _BV(UDRE0))) {
+      UDR0 = tx_buf[tx_tail];
+      tx_tail = static_cast<uint8_t>((tx_tail + 1) & (SERIAL_TX_BUFFER_SIZE - 1));
+    }
+  }
+  tx_buf[tx_head] = c;
+  tx_head = static_cast<uint8_t>((tx_head + 1) & (SERIAL_TX_BUFFER_SIZE - 1));
+  UCSR0B |= _BV(UDRIE0);
+}
+// Next received byte, or -1.
+static int16_t get() {
+  if (rx_head == rx_tail) return -1;
+  const uint8_t c = rx_buf[rx_tail];
+  rx_tail = static_cast<uint8_t>((rx_tail + 1) & (SERIAL_RX_BUFFER_SIZE - 1));
+  return c;
+}
+}  // namespace uart
+
+ISR(USART_RX_vect) {
+  const bool parity_error = (UCSR0A & _BV(UPE0)) != 0;
+  const uint8_t c = UDR0;
+  const uint8_t next = static_cast<uint8_t>((uart::rx_head + 1) & (SERIAL_RX_BUFFER_SIZE - 1));
+  if (parity_error || next == uart::rx_tail) return;  // a full ring drops the byte (the line
+  uart::rx_buf[uart::rx_head] = c;                     // buffer then reports the bad line)
+  uart::rx_head = next;
+}
+ISR(USART_UDRE_vect) {
+  if (uart::tx_head == uart::tx_tail) {
+    UCSR0B &= static_cast<uint8_t>(~_BV(UDRIE0));
+    return;
+  }
+  UDR0 = uart::tx_buf[uart::tx_tail];
+  uart::tx_tail = static_cast<uint8_t>((uart::tx_tail + 1) & (SERIAL_TX_BUFFER_SIZE - 1));
+}
+
 // ---- heater PWM --------------------------------------------------------------------------------
 static void pwm_init() {
   OCR1A = 0;
@@ -110,18 +173,19 @@ static void pwm_write(uint16_t n) {
 // A line waits for room in the TX buffer only until the next tick is due (115200 baud drains a
 // telemetry row in 3.5 ms), then it is dropped (the board counts it: status drop=).
 #if SERIAL_TX_BUFFER_SIZE < 128
-#warning "SERIAL_TX_BUFFER_SIZE < 128: replies longer than the buffer block loop() for a few ms; build the core and the sketch with -DSERIAL_TX_BUFFER_SIZE=128"
+#warning "SERIAL_TX_BUFFER_SIZE < 128: replies longer than the buffer block loop() for a few ms"
 #endif
 struct UnoHw {
   static bool line(const char* s, uint8_t len) {
-    if (static_cast<int>(len) + 2 <= SERIAL_TX_BUFFER_SIZE - 1) {
-      while (Serial.availableForWrite() < static_cast<int>(len) + 2 && !g_tick_pending) {
+    const uint16_t need = static_cast<uint16_t>(len + 2u);
+    if (need <= SERIAL_TX_BUFFER_SIZE - 1) {
+      while (uart::tx_free() < need && !g_tick_pending) {
       }
-      if (Serial.availableForWrite() < static_cast<int>(len) + 2) return false;
+      if (uart::tx_free() < need) return false;
     }  // else it can never fit: blocking write
-    Serial.write(reinterpret_cast<const uint8_t*>(s), len);
-    Serial.write('\r');
-    Serial.write('\n');
+    for (uint8_t i = 0; i < len; ++i) uart::put(static_cast<uint8_t>(s[i]));
+    uart::put('\r');
+    uart::put('\n');
     return true;
   }
   // eeprom_update_byte waits for the previous write (3.4 ms each): the watchdog is fed between
@@ -167,8 +231,8 @@ static bool line_slot_open() {
 // Reads bytes until one line is complete or a tick is due.
 static void __attribute__((noinline)) poll_serial() {
   if (!g_board.line_waiting()) {
-    while (!g_tick_pending && Serial.available() > 0) {
-      const int b = Serial.read();
+    while (!g_tick_pending) {
+      const int16_t b = uart::get();
       if (b < 0) break;
       if (g_board.rx(static_cast<char>(b))) break;
     }
@@ -197,10 +261,10 @@ static void __attribute__((noinline)) control_tick() {
   GPIOR0 = 3;
 }
 
-void setup() {
+static void setup() {
   const bool wdrf = (g_reset_cause & _BV(WDRF)) != 0;
   pwm_init();
-  Serial.begin(RIG_BAUD);
+  uart::begin(RIG_BAUD);
   // The models' construction (the deepest stack of the run, interrupts off meanwhile), the
   // ready line, "# fault watchdog" if the last run hung. Before the tick timer starts: tick 0
   // is the timer's first.
@@ -219,7 +283,7 @@ void setup() {
   wdt_enable(WDTO_250MS);
 }
 
-void loop() {
+static void loop() {
   poll_serial();
   // A model command runs here, at the top of the stack: pcommit builds the controller (the
   // deepest stack) and must not do it below the console's frames.
@@ -235,4 +299,10 @@ void loop() {
     control_tick();
   }
   g_board.poll();
+}
+
+int main() {
+  sei();  // as the Arduino core's init() did before setup(): the banner drains meanwhile
+  setup();
+  for (;;) loop();
 }

@@ -143,3 +143,53 @@ TEST(Board, UploadedCalibrationIsUndoneInTheFeedback) {
 }
 
 }  // namespace
+
+// pget on a blank EEPROM answers the paper's value of every key (Table II, Effects() identity):
+// the board reads it from its copy of the defaults without building a Params, and must answer
+// as the console's model_command() does from sma::Params() / sma::Effects().
+TEST(Board, PgetOfEveryDefaultKeyIsThePapersValue) {
+  Bench r;
+  EXPECT_EQ(r.cmd("pget T_AS"), "OK pget T_AS 50.2 0x4248cccd");  // Table II: T_AS 50.2 degC
+  EXPECT_EQ(r.cmd("pget loops"), "OK pget loops 3 0x03");
+  EXPECT_EQ(r.cmd("pget sensor_calibration.gain"), "OK pget sensor_calibration.gain 1 0x3f800000");
+  uint8_t ee[1024];
+  memset(ee, 0xFF, sizeof ee);
+  sma::storage::Store<Io> store(Io{ee, nullptr});
+  for (uint8_t k = 0; k < sma::storage::kNumKeys; ++k) {
+    sma::console::Reply name;
+    sma::storage::put_key_name(name, k);
+    sma::console::Command c;
+    c.op = sma::console::Op::PGet;
+    c.key = k;
+    sma::Params p;
+    sma::Effects fx;
+    sma::console::Reply expect;
+    sma::console::model_command(c, store, p, fx, expect);
+    EXPECT_EQ(r.cmd(std::string("pget ") + name.text), std::string(expect.text)) << name.text;
+  }
+}
+
+// tele plot: the telemetry's four values as Teleplot lines (one reply, a line each), no header;
+// tele on afterwards sends the header, then rows.
+TEST(Board, TelePlotStreamsTeleplotLinesAndRowsResumeWithTheHeader) {
+  Bench r;
+  EXPECT_EQ(r.cmd("tele plot"), "OK tele plot");
+  r.cmd("pos 0.3");
+  r.lines.clear();
+  r.tick(0.25);
+  ASSERT_EQ(r.lines.size(), 1u);
+  const std::string& s = r.lines[0];
+  EXPECT_EQ(s.rfind(">v_V:", 0), 0u) << s;
+  EXPECT_NE(s.find("\r\n>d_mm:0.2500\r\n>ref_mm:0.3000\r\n>duty:"), std::string::npos) << s;
+  EXPECT_EQ(r.cmd("tele on"), "OK tele on");
+  r.lines.clear();
+  r.tick(0.25);
+  ASSERT_EQ(r.lines.size(), 2u);
+  EXPECT_EQ(r.lines[0], "t_s,v_V,d_mm,ref_mm,duty");
+  EXPECT_EQ(r.lines[1].find('>'), std::string::npos);
+  EXPECT_EQ(r.cmd("tele plot"), "OK tele plot");
+  r.lines.clear();
+  r.tick(0.25);
+  ASSERT_EQ(r.lines.size(), 1u);
+  EXPECT_EQ(r.lines[0].rfind(">v_V:", 0), 0u);
+}

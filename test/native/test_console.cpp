@@ -290,8 +290,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadLine{"mode warp", "ERR mode: expected open, pid, ff or ffpid"},
         BadLine{"mode", "ERR mode: expected open, pid, ff or ffpid"},
         BadLine{"mode PID", "ERR mode: expected open, pid, ff or ffpid"},
-        BadLine{"tele maybe", "ERR tele: expected on or off"},
-        BadLine{"tele", "ERR tele: expected on or off"},
+        BadLine{"tele maybe", "ERR tele: expected on, off or plot"},
+        BadLine{"tele", "ERR tele: expected on, off or plot"},
         BadLine{"traj", "ERR traj: expected clear, run or <t_s> <mm>"},
         // trajectory rules
         BadLine{"traj 0 0.3", "ERR traj: t_s must increase"}));

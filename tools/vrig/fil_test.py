@@ -245,6 +245,48 @@ def t_bad_lines(args):
     return name, {"replies": rep, "cycles": st}, failures
 
 
+def t_plot(args):
+    """`tele plot`: Teleplot lines (`>name:value`, one per telemetry column, every tick) instead of
+    the rig-log rows; `tele on` switches back to rows (header first), `tele off` stops both."""
+    name = "plot"
+    names = ["v_V", "d_mm", "ref_mm", "duty"]
+    script = ["0.05 tele plot", "0.10 pos 0.3", "3.00 tele on", "4.00 tele plot", "5.00 tele off", "5.50 status"]
+    lines, rows, st = run_vrig(args, name, script, 6.0)
+    failures = []
+    rep = [s for _, s in replies(lines)]
+    check(rep[:1] == ["OK tele plot"], f"first reply {rep[:1]}", failures)
+    plot = [(t, s) for t, s in lines if s.startswith(">")]
+    groups = {}
+    for t, s in plot:
+        key, sep, val = s[1:].partition(":")
+        check(sep == ":" and key in names, f"not a Teleplot line of the telemetry: {s!r}", failures)
+        try:
+            groups.setdefault(key, []).append((t, float(val)))
+        except ValueError:
+            failures.append(f"value not a number: {s!r}")
+    # Every tick while plotting (0.05..3 s and 4..5 s: ~395 ticks), each name once per tick, in order.
+    n = [len(groups.get(k, [])) for k in names]
+    check(len(set(n)) == 1 and 380 <= n[0] <= 400, f"lines per name {dict(zip(names, n))}", failures)
+    seq = [s[1:].partition(":")[0] for _, s in plot]
+    check(seq == names * (len(seq) // 4), "names not in v_V, d_mm, ref_mm, duty order", failures)
+    check(not any(3.05 < t < 3.95 or t > 5.05 for t, _ in plot), "Teleplot lines outside `tele plot`", failures)
+    # The values are the rig-log row's: the setpoint after pos 0.3, duty and voltage in range and
+    # the duty the voltage's (V / V_supply)^2 while rows would show the same.
+    ref = [v for t, v in groups.get("ref_mm", []) if 0.2 < t < 2.9]
+    check(ref and all(abs(v - 0.3) < 1e-9 for v in ref), "ref_mm is not the setpoint 0.3", failures)
+    check(all(0.0 <= v <= 1.0 for _, v in groups.get("duty", [])), "duty outside 0..1", failures)
+    check(any(v > 0.0 for _, v in groups.get("v_V", [])), "no heating voltage plotted", failures)
+    d = [v for t, v in groups.get("d_mm", []) if 2.0 < t < 2.9]
+    check(d and all(0.0 <= v < 1.0 for v in d), "d_mm out of the stroke", failures)
+    # tele on in between: the header once, then rows (3..4 s); none after tele plot / off.
+    headers = [t for t, s in lines if s == "t_s,v_V,d_mm,ref_mm,duty"]
+    check(len(headers) == 1 and 3.0 <= headers[0] < 3.05, f"header lines at {headers}", failures)
+    check(90 <= len(rows) <= 102, f"{len(rows)} rig-log rows between tele on and tele plot", failures)
+    check(any(s.startswith("OK status") for s in rep), "no status reply after tele off", failures)
+    common_checks(st, failures)
+    return name, {"lines_per_name": dict(zip(names, n)), "rows": len(rows), "cycles": st}, failures
+
+
 def t_sensor_loss(args):
     name = "sensor_loss"
     t_fault = 5.0  # on a slow ramp: the wire is being heated
@@ -596,7 +638,7 @@ def main():
     ap.add_argument("--out", required=True)
     ap.add_argument("--sma-params", help="the sma_params helper (upload test; default: next to vrig)")
     ap.add_argument("test", choices=["tracking_step", "tracking_sine", "bad_lines", "sensor_loss", "flood",
-                                     "watchdog_boot", "model", "upload", "download", "console", "train"])
+                                     "watchdog_boot", "model", "upload", "download", "console", "train", "plot"])
     args = ap.parse_args()
     global ELF
     ELF = args.elf
@@ -604,7 +646,8 @@ def main():
     tests = {"tracking_step": lambda: t_tracking(args, "step"), "tracking_sine": lambda: t_tracking(args, "sine"),
              "bad_lines": lambda: t_bad_lines(args), "sensor_loss": lambda: t_sensor_loss(args),
              "watchdog_boot": lambda: t_watchdog_boot(args), "model": lambda: t_model(args),
-             "upload": lambda: t_upload(args), "download": lambda: t_download(args), "console": lambda: t_console(args), "train": lambda: t_train(args)}
+             "upload": lambda: t_upload(args), "download": lambda: t_download(args), "console": lambda: t_console(args), "train": lambda: t_train(args),
+             "plot": lambda: t_plot(args)}
     name, summary, failures = tests.get(args.test, lambda: t_flood(args))()
     summary["failures"] = failures
     with open(os.path.join(args.out, name, "summary.json"), "w") as f:

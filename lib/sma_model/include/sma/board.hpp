@@ -33,15 +33,12 @@
 
 #include <stddef.h>
 #include <stdint.h>
-#if defined(ARDUINO)
-#include <new.h>
-#endif
 #if defined(__AVR__)
 #include <avr/pgmspace.h>
 #endif
-#if defined(ARDUINO)
-#elif defined(__AVR__)
-// avr-libc has no <new>: the placement form the unions below need.
+#if defined(__AVR__)
+// avr-libc has no <new>: the placement form the unions below need, inline (the Arduino core's
+// <new.h> declares it out of line: a call per construction; the firmware does not use the core).
 inline void* operator new(size_t, void* place) noexcept { return place; }
 #else
 #include <new>
@@ -103,7 +100,7 @@ class Board {
     v_.x.waiting_ = LineStatus::Pending;
     if (st == LineStatus::Line) {
       console::Command c;
-      const bool tele_before = state_.s.tele;
+      const bool rows_before = state_.s.tele && !state_.s.plot;
       if (console::execute(line_.x.line(), state_.s, safety_.fault(), reply_.x, limits(), &c)) {
         if (c.op == console::Op::Status) console::status_line(reply_.x, state_.s, live_.x);
         if (Rig::model() && console::is_model_op(c.op)) {  // run_model_op() replies
@@ -112,7 +109,7 @@ class Board {
           v_.x.model_a_ = static_cast<float>(c.a);
           return;
         }
-        apply(c, tele_before);
+        apply(c, rows_before);
       }
     } else if (st != LineStatus::Pending) {
       console::line_error(st, reply_.x);
@@ -197,14 +194,15 @@ class Board {
   // After control() (and the PWM written): the tick's telemetry row and fault announcement.
   SMA_NOINLINE void report() {
     if (state_.s.tele) {
-      if (v_.x.header_due_) {
+      if (v_.x.header_due_ && !state_.s.plot) {
         reply_.x.clear();
         reply_.x.put_f(console::telemetry_header());
         send();
         v_.x.header_due_ = false;
       }
       console::telemetry_row(reply_.x, v_.x.ticks_, static_cast<uint16_t>(Rig::tick_hz()), live_.x.v, live_.x.d_mm,
-                             live_.x.ref_mm, static_cast<float>(v_.x.counts_) / static_cast<float>(Rig::pwm_top() + 1UL));
+                             live_.x.ref_mm, static_cast<float>(v_.x.counts_) / static_cast<float>(Rig::pwm_top() + 1UL),
+                             state_.s.plot);
       send();
     }
     ++v_.x.ticks_;
@@ -265,10 +263,21 @@ class Board {
   }
   static ControllerConfig controller_config() {
     ControllerConfig c;
-    c.dt = 1.0 / Rig::tick_hz();
-    c.v_max = Rig::v_max();
-    c.gains = console::default_gains(Mode::FeedforwardPid);
+    controller_config(&c);
     return c;
+  }
+  // In place: on AVR the defaults are a copy of a constant in flash (a local ControllerConfig
+  // keeps its 48-byte initial image in .data: RAM for good).
+  static SMA_NOINLINE void controller_config(ControllerConfig* c) {
+#if defined(__AVR__)
+    static const ControllerConfig kDefault PROGMEM = ControllerConfig();
+    memcpy_P(c, &kDefault, sizeof(ControllerConfig));
+#else
+    new (c) ControllerConfig();
+#endif
+    c->dt = 1.0 / Rig::tick_hz();
+    c->v_max = Rig::v_max();
+    c->gains = console::default_gains(Mode::FeedforwardPid);
   }
 
   // Effective volts -> PWM counts n of duty (V / V_supply)^2, n / (TOP + 1); below one count: 0.
@@ -333,7 +342,12 @@ class Board {
   // of the firmware, no ISR frame on top of it.
   SMA_NOINLINE void construct(const Params& p, const Effects& fx) {
     const uint8_t s = store_.eeprom().irq_off();
-    new (&models_.m.ctl) Ctl(p, fx, controller_config());
+    // The controller's config lives in the sensor predictor's storage while the controller is
+    // built (the predictor is built next over it): 48 B less on the deepest stack.
+    static_assert(sizeof(SensorPredictor<T>) >= sizeof(ControllerConfig), "config scratch");
+    ControllerConfig* cfg = reinterpret_cast<ControllerConfig*>(static_cast<void*>(&models_.m.sensor));
+    controller_config(cfg);
+    new (&models_.m.ctl) Ctl(p, fx, *cfg);
     if (Rig::compensate())
       new (&models_.m.sensor) SensorPredictor<T>(ctl().inverse().curves(), p, fx, 1.0 / Rig::tick_hz());
     v_.x.g_mm_ = static_cast<float>(p.g < Rig::stroke_mm() ? p.g : Rig::stroke_mm());
@@ -354,11 +368,24 @@ class Board {
   // The paper's values into `p`: on AVR a copy of a constant in flash (the constructor's stores
   // cost ~500 B of flash).
 #if defined(__AVR__)
-  static SMA_NOINLINE void paper_params(Params* p) {
+  static const Params& paper() {
     static const Params kPaper PROGMEM = Params();
-    memcpy_P(p, &kPaper, sizeof(Params));
+    return kPaper;
   }
+  template <class X>
+  static X read_paper(const X* field) {  // a field of paper()
+    X x;
+    memcpy_P(&x, field, sizeof(X));
+    return x;
+  }
+  static SMA_NOINLINE void paper_params(Params* p) { memcpy_P(p, &paper(), sizeof(Params)); }
 #else
+  static const Params& paper() {
+    static const Params kPaper = Params();
+    return kPaper;
+  }
+  template <class X>
+  static X read_paper(const X* field) { return *field; }
   static SMA_NOINLINE void paper_params(Params* p) { new (p) Params(); }
 #endif
 
@@ -403,8 +430,10 @@ class Board {
   // The model commands (storage.hpp via console::model_command) on `p`, a scratch Params.
   // pcommit builds the models from the staged set (Validator); refused, they are rebuilt from
   // the active set.
-  SMA_NOINLINE void model_op(const console::Command& c, Params* p) {
-    paper_params(p);  // the defaults (pbegin and pget read them when no set is active)
+  // `defaults`: p is scratch the command may overwrite (pbegin, pcommit), filled with the
+  // paper's values first (pbegin reads them when no set is active).
+  SMA_NOINLINE void model_op(const console::Command& c, Params* p, bool defaults = true) {
+    if (defaults) paper_params(p);
     Effects fx;
     Validator v = {this};
     if (!console::model_command(c, store_, *p, fx, reply_.x, v) && c.op == console::Op::PCommit)
@@ -417,13 +446,26 @@ class Board {
     ctl().set_gains(state_.s.gains());
     start_reference();
   }
-  // pset / pget / pinfo / pabort may run while heating: their scratch is on the stack.
+  // pset / pget / pinfo / pabort may run while heating (the generator's storage is in use) and
+  // need no Params: only pget without an active set reads a default, the paper's value of its
+  // key straight from paper_value() (a Params on the stack here was the deepest frame).
   SMA_NOINLINE void model_read(const console::Command& c) {
-    union Scratch {
-      Scratch() {}
-      Params p;
-    } u;
-    model_op(c, &u.p);
+    if (c.op == console::Op::PGet && store_.active() < 0) {
+      reply_.x.clear();
+      console::pget_default_line(reply_.x, c.key, paper_value(c.key));
+      return;
+    }
+    // Read commands never touch the scratch set: the generator's storage stands in for it.
+    model_op(c, &gen_.params, false);
+  }
+  // Key k of the paper's values (sma::Params(), sma::Effects()) without building a Params.
+  static SMA_NOINLINE double paper_value(uint8_t k) {
+    const Params& p = paper();
+    Effects fx;
+    if (k == storage::kKeyLoops) return read_paper(&p.n_loops);
+    double* v = storage::value_ptr(const_cast<Params&>(p), fx, k);
+    if (!v) return 0.0;
+    return k < storage::kFirstEffect ? read_paper(v) : *v;
   }
 
   SMA_NOINLINE void announce_fault() {
@@ -457,7 +499,8 @@ class Board {
 
   // The controller, the latch and the reference follow an OK'd command: each setting only when
   // this command sets it.
-  SMA_NOINLINE void apply(const console::Command& c, bool tele_before) {
+  // `rows_before`: rig-log rows were streaming before this command (their header was sent).
+  SMA_NOINLINE void apply(const console::Command& c, bool rows_before) {
     using console::Op;
     if (c.op == Op::Stop) safety_.clear();
     if (c.op == Op::Tlim) safety_.set_limit(state_.s.tlim_C);
@@ -470,7 +513,8 @@ class Board {
       start_reference();
       v_.x.run_start_ = v_.x.ticks_;
     }
-    if (c.op == Op::Tele && c.on && !tele_before) v_.x.header_due_ = true;  // once per start
+    // The header once per start of the rows (tele on after off or plot).
+    if (c.op == Op::Tele && state_.s.tele && !state_.s.plot && !rows_before) v_.x.header_due_ = true;
     if (Rig::train() && c.op == Op::Train) start_training(c.a);
     // A training run replaced by another command: its storage back to a generator.
     if (v_.x.training_ && !state_.s.training) {

@@ -17,6 +17,7 @@
 // | gains <kp> <ki> <kd> | PID gains of the selected PID mode (pid or ffpid)       | 0..1000    |
 // | tlim <degC>          | wire temperature limit of the safety latch              | 30..150    |
 // | tele on|off          | telemetry rows t_s,v_V,d_mm,ref_mm,duty at 100 Hz       |            |
+// | tele plot            | the same values as Teleplot lines `>v_V:0.81` ... (no rows) |        |
 // | status               | one line: mode, reference, measurement, fault           |            |
 // | stop                 | heater off (mode off), clears a latched fault           |            |
 // | help                 | list the commands                                       |            |

@@ -121,7 +121,10 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
       reply.put(' ');
       reply.put_fixed(c.a, 1);
       break;
-    case Op::Tele: s.tele = c.on; break;
+    case Op::Tele:  // (c.mode carries the row's value)
+      s.tele = c.on;
+      s.plot = static_cast<uint8_t>(c.mode) == kTelePlot;
+      break;
     case Op::Stop: s.heat = false; break;
     case Op::Help:
       {

@@ -36,6 +36,21 @@ inline void pinfo_line(Reply& r, const char* head_f, int8_t active, int8_t stagi
   }
 }
 
+// `OK pget <key> <value> <bits>`: the value and its stored bits (hex; loops: the count).
+inline void pget_line(Reply& r, uint8_t key, double v, uint32_t bits) {
+  r.put_f(SMA_F("OK pget "));
+  storage::put_key_name(r, key);
+  r.put(' ');
+  r.put_num(v);
+  r.put(' ');
+  r.put_hex(bits, key == storage::kKeyLoops ? 2 : 8);
+}
+// pget with no active set: the default `v` as it would be stored (float32).
+inline void pget_default_line(Reply& r, uint8_t key, double v) {
+  if (key != storage::kKeyLoops) v = storage::bits_float(storage::float_bits(v));
+  pget_line(r, key, v, key == storage::kKeyLoops ? static_cast<uint32_t>(v) : storage::float_bits(v));
+}
+
 template <class E>
 inline bool model_command(const Command& c, storage::Store<E>& st, Params& scratch, Effects& fxs,
                           Reply& r) {
@@ -71,25 +86,14 @@ inline bool model_command(const Command& c, storage::Store<E>& st, Params& scrat
       r.put(' ');  // the bits as written, read back from the EEPROM
       r.put_hex(st.read_bits(static_cast<uint8_t>(st.staging()), c.key), c.key == storage::kKeyLoops ? 2 : 8);
       return false;
-    case Op::PGet: {
-      double v;
-      uint32_t bits;
+    case Op::PGet:
       if (st.active() >= 0) {
-        v = st.read_value(static_cast<uint8_t>(st.active()), c.key);
-        bits = st.read_bits(static_cast<uint8_t>(st.active()), c.key);
+        const uint8_t a = static_cast<uint8_t>(st.active());
+        pget_line(r, c.key, st.read_value(a, c.key), st.read_bits(a, c.key));
       } else {
-        v = storage::get_value(scratch, fxs, c.key);
-        if (c.key != storage::kKeyLoops) v = storage::bits_float(storage::float_bits(v));
-        bits = c.key == storage::kKeyLoops ? static_cast<uint32_t>(v) : storage::float_bits(v);
+        pget_default_line(r, c.key, storage::get_value(scratch, fxs, c.key));
       }
-      r.put_f(SMA_F("OK pget "));
-      storage::put_key_name(r, c.key);
-      r.put(' ');
-      r.put_num(v);
-      r.put(' ');
-      r.put_hex(bits, c.key == storage::kKeyLoops ? 2 : 8);
       return false;
-    }
     case Op::PCommit: {
       if (st.staging() < 0) {
         r.put_f(SMA_F("ERR pcommit: no staged set, send pbegin"));

@@ -100,7 +100,7 @@ inline void line_error(LineBuffer::Status st, Reply& reply) {
 
 // ---- the command table -------------------------------------------------------------------------
 // One row per operation: the command word, the keyword after it ("-": numbers follow instead),
-// the Op, a value (the Mode of `mode`, on/off of `tele`), properties and up to three numbers.
+// the Op, a value (the Mode of `mode`, off/on/plot of `tele`), properties and up to three numbers.
 // The parser, `help`, the error messages and the properties (Command::heats ...) come from it.
 // Rows of one word are consecutive; a keyword row comes before the word's "-" row.
 enum Prop : uint8_t {
@@ -121,10 +121,12 @@ inline const char* arg_names() { return SMA_F("- mm V kp ki kd degC t_s slope va
 static SMA_STORAGE_TABLE double kArgRange[][2] = {
     {0, 0}, {0, -1}, {0, -2}, {0, 999}, {0, 999}, {0, 999}, {30, 150}, {0, kTrajMaxS}, {0.0001, 1}, {0, 0}};
 inline const char* command_words() {
-  return SMA_F("pos step sine traj traj traj mode mode mode mode volt gains tlim tele tele status stop help "
+  return SMA_F("pos step sine traj traj traj mode mode mode mode volt gains tlim tele tele tele status stop help "
                "train pbegin pset pget pcommit pabort pinfo");
 }
-inline const char* command_subs() { return SMA_F("- - - clear run - open pid ff ffpid - - - on off - - - - - - - - - -"); }
+inline const char* command_subs() {
+  return SMA_F("- - - clear run - open pid ff ffpid - - - on off plot - - - - - - - - - -");
+}
 struct CommandRow {
   Op op;
   uint8_t value;
@@ -148,6 +150,7 @@ static SMA_STORAGE_TABLE CommandRow kCommandRows[] = {
     {Op::Tlim, 0, 0, {kArgDegC, 0, 0}},
     {Op::Tele, 1, 0, {0, 0, 0}},
     {Op::Tele, 0, kSameWord, {0, 0, 0}},
+    {Op::Tele, kTelePlot, kSameWord, {0, 0, 0}},
     {Op::Status, 0, 0, {0, 0, 0}},
     {Op::Stop, 0, kEndsTraining, {0, 0, 0}},
     {Op::Help, 0, 0, {0, 0, 0}},

@@ -117,9 +117,28 @@ struct Reply {
 inline const char* telemetry_header() { return SMA_F("t_s,v_V,d_mm,ref_mm,duty"); }
 
 // One row `t_s,v_V,d_mm,ref_mm,duty`; t from the tick count (exact, 100 Hz -> 2 decimals).
+// `plot`: the same values as Teleplot lines instead, one per column (Teleplot's serial format
+// `>name:value`, the names of the header; the receiver's clock is the time axis), in one reply:
+//   >v_V:0.8123 CR LF >d_mm:0.4012 CR LF >ref_mm:0.4000 CR LF >duty:0.16000
 inline void telemetry_row(Reply& r, uint32_t ticks, uint16_t ticks_per_s, double v, double d_mm,
-                          double ref_mm, double duty) {
+                          double ref_mm, double duty, bool plot = false) {
   r.clear();
+  const double value[4] = {v, d_mm, ref_mm, duty};
+  if (plot) {
+    const char* name = telemetry_header();
+    for (uint8_t k = 0; k < 4; ++k) {
+      if (k > 0) {
+        r.put('\r');
+        r.put('\n');
+      }
+      r.put('>');
+      while (flash_char(name) != ',') ++name;  // the header's next name
+      for (++name; flash_char(name) != ',' && flash_char(name) != 0; ++name) r.put(flash_char(name));
+      r.put(':');
+      r.put_fixed(value[k], k == 3 ? 5 : 4);
+    }
+    return;
+  }
   r.put_u(ticks / ticks_per_s);
   r.put('.');
   uint32_t frac = ticks % ticks_per_s;
@@ -131,14 +150,10 @@ inline void telemetry_row(Reply& r, uint32_t ticks, uint16_t ticks_per_s, double
     r.put(static_cast<char>('0' + frac / s));
     frac %= s;
   }
-  r.put(',');
-  r.put_fixed(v, 4);
-  r.put(',');
-  r.put_fixed(d_mm, 4);
-  r.put(',');
-  r.put_fixed(ref_mm, 4);
-  r.put(',');
-  r.put_fixed(duty, 5);
+  for (uint8_t k = 0; k < 4; ++k) {
+    r.put(',');
+    r.put_fixed(value[k], k == 3 ? 5 : 4);
+  }
 }
 
 }  // namespace console

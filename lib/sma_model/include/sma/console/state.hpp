@@ -65,6 +65,7 @@ struct State {
   PidGains gains_ffpid = kGainsFfpid;
   double tlim_C = 110.0;
   bool tele = false;
+  bool plot = false;  // telemetry as Teleplot lines (tele plot) instead of rig-log rows (tele on)
   RefKind run_kind = RefKind::Constant;  // the reference being run (reference())
   double pos_mm = 0.0;                    // its setpoint if constant
   Reference traj = {RefKind::Trajectory};  // trajectory points (edited by traj, run by traj run)
@@ -93,6 +94,9 @@ struct State {
     return r;
   }
 };
+
+// The value of the `tele plot` row (tele on: 1, off: 0).
+constexpr uint8_t kTelePlot = 2;
 
 enum class Op : uint8_t {
   Empty, Pos, Step, Sine, TrajClear, TrajPoint, TrajRun, SetMode, Volt, Gains, Tlim, Tele,
