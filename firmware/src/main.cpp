@@ -235,4 +235,8 @@ void loop() {
     control_tick();
   }
   g_board.poll();
+  // The preview's planning, one bounded step (<= ~1.4 ms) per pass while >= 2 ms remain.
+#if RIG_FEATURE_PREVIEW
+  if (!g_board.line_waiting() && g_div + 2 < RIG_TIMER2_DIV && !g_tick_pending) g_board.plan();
+#endif
 }

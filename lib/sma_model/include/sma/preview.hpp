@@ -36,6 +36,9 @@
 #ifndef SMA_PREVIEW_HPP
 #define SMA_PREVIEW_HPP
 
+#if !defined(__AVR__)
+#include <new>  // placement new of PreviewSlot (the AVR board provides its own, sma/board.hpp)
+#endif
 #include "effects.hpp"
 #include "hysteresis.hpp"
 #include "mechanics.hpp"
@@ -144,6 +147,26 @@ class PreviewController {
     v_ = T(0);
     lead_ready_ = false;
     restart_plan();
+  }
+
+  // Restart at the measured displacement (mm): the model wire at T0 with the fraction the
+  // measurement implies (eq 14) - a board entering this controller from another one.
+  void start(T T0, T measured) {
+    reset(T0, is_finite(measured) ? mech_.fraction(measured) : T(0));
+  }
+  // A new reference (its clock restarted): the plan in progress sampled the old one.
+  void new_reference() {
+    have_ref_ = false;
+    lead_ready_ = false;
+    switch_due_ = 0;
+    restart_plan();
+  }
+  // The trade-off setting (PreviewConfig::cool_weight, 0..100); out of range: unchanged.
+  bool set_cool_weight(double w) {
+    if (!(w >= 0.0 && w <= 100.0)) return false;
+    cfg_.cool_weight = w;
+    cool_w_ = from_double<T>(w);
+    return true;
   }
 
   // One tick: reference now, its future (future(tau_s) = reference tau_s ahead) and the
@@ -389,6 +412,50 @@ class PreviewController {
   // The reference track_s after the next tick, sampled between ticks by plan_step().
   T lead_ = T(0);
   bool lead_ready_ = false;
+};
+
+// The preview as a part of a board that may leave it out (a compile switch, sma/board.hpp):
+// PreviewSlot<T, true> holds a PreviewController built in place (it is not copyable and a
+// board rebuilds it with its models); PreviewSlot<T, false> is empty and does nothing, so the
+// board's calls compile either way and vanish when it is off.
+template <class T, bool On>
+class PreviewSlot {
+ public:
+  void build(const Params&, const Effects&, const PreviewConfig&) {}
+  void start(T, T) {}
+  void new_reference() {}
+  void set_cool_weight(double) {}
+  template <class Future>
+  T step(T, const Future&, T) { return T(0); }
+  template <class Future>
+  bool plan_step(const Future&) { return false; }
+  T wire_temperature() const { return T(0); }
+};
+
+template <class T>
+class PreviewSlot<T, true> {
+ public:
+  PreviewSlot() {}
+  ~PreviewSlot() {}
+  void build(const Params& p, const Effects& fx, const PreviewConfig& cfg) {
+    new (&u_.c) PreviewController<T>(p, fx, cfg);
+  }
+  void start(T T0, T measured) { u_.c.start(T0, measured); }
+  void new_reference() { u_.c.new_reference(); }
+  void set_cool_weight(double w) { u_.c.set_cool_weight(w); }
+  template <class Future>
+  T step(T ref, const Future& future, T measured) { return u_.c.step(ref, future, measured); }
+  template <class Future>
+  bool plan_step(const Future& future) { return u_.c.plan_step(future); }
+  T wire_temperature() const { return u_.c.wire_temperature(); }
+  const PreviewController<T>& controller() const { return u_.c; }
+
+ private:
+  union U {
+    U() {}
+    ~U() {}
+    PreviewController<T> c;
+  } u_;
 };
 
 }  // namespace sma
