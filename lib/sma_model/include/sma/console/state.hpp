@@ -11,6 +11,14 @@
 #include "../safety.hpp"
 #include "../scalar.hpp"
 
+// The preview controller's rows (`mode preview`, `cool W`) in the command table: 1 (the host's
+// default) or 0 for a board built without the preview (firmware/include/rig_board.h: ~200 B of
+// flash for rows, words and checks it could never use). Where they are compiled in,
+// Limits::preview still decides whether they exist.
+#ifndef SMA_CONSOLE_PREVIEW
+#define SMA_CONSOLE_PREVIEW 1
+#endif
+
 namespace sma {
 namespace console {
 
@@ -49,14 +57,6 @@ inline const char* mode_name_f(Mode m) {
     default: return SMA_F("off");
   }
 }
-
-// The preview controller's rows (`mode preview`, `cool W`) in the command table: 1 (the host's
-// default) or 0 for a board built without the preview (firmware/include/rig_board.h: ~200 B of
-// flash for rows, words and checks it could never use). Where they are compiled in,
-// Limits::preview still decides whether they exist.
-#ifndef SMA_CONSOLE_PREVIEW
-#define SMA_CONSOLE_PREVIEW 1
-#endif
 
 // Limits of the numbers the console accepts.
 struct Limits {
