@@ -180,7 +180,7 @@ class Board {
         ctl().set_voltage(from_double<T>(training_voltage(t_ref)));
       }
     } else {
-      ref = gen().at(t_ref);
+      ref = ref_at(t_ref);
     }
     T v_cmd = ctl().step(ref, d);
     if (preview_on()) v_cmd = preview().step(ref, Future{this, t_ref}, d);
@@ -354,8 +354,10 @@ class Board {
   struct Future {
     Board* b;
     float t;
-    T operator()(T tau) const { return b->gen().at(t + static_cast<float>(to_double(tau))); }
+    T operator()(T tau) const { return b->ref_at(t + static_cast<float>(to_double(tau))); }
   };
+  // The reference at t (one copy of ReferenceGen::at for the tick and the preview's future).
+  SMA_NOINLINE T ref_at(float t) { return gen().at(t); }
   static PreviewConfig preview_config() {
     PreviewConfig c;
     c.dt = 1.0 / Rig::tick_hz();
@@ -380,7 +382,7 @@ class Board {
     if (Rig::compensate())
       new (&models_.m.sensor) SensorPredictor<T>(ctl().inverse().curves(), p, fx, 1.0 / Rig::tick_hz());
     if (kPreview) {
-      preview().build(p, fx, preview_config());
+      preview().build(ctl().inverse().curves(), ctl().inverse().thermal(), p, fx, preview_config(), ctl().valid());
       preview().set_cool_weight(state_.s.cool_weight);
     }
     v_.x.g_mm_ = static_cast<float>(p.g < Rig::stroke_mm() ? p.g : Rig::stroke_mm());

@@ -93,17 +93,23 @@ struct PreviewConfig {
   }
 };
 
+// The controller on model boxes it shares with its owner: the phase curves and the thermal model
+// (eqs 1-17) of a board's inverse model (sma/controller.hpp), which must outlive it.
 template <class T>
-class PreviewController {
+class PreviewCore {
  public:
   static constexpr uint8_t kMaxGrid = 40;
   static constexpr uint8_t kCandidates = 7;
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
 
-  PreviewController(const Params& p, const Effects& fx, const PreviewConfig& cfg)
+  // curves and thermal: built from p and fx. model_valid: the caller's verdict on p and fx
+  // (Params::check, Effects::check), e.g. a board's Controller built from the same set (on AVR a
+  // second caller of check() keeps its messages in RAM: ~600 B).
+  PreviewCore(const PhaseCurves<T>& curves, const Thermal<T>& thermal, const Params& p, const Effects& fx,
+              const PreviewConfig& cfg, bool model_valid)
       : cfg_(cfg),
-        curves_(p),
-        thermal_(p, fx),
+        curves_(curves),
+        thermal_(thermal),
         mech_(p),
         wire_step_(thermal_, p, cfg.dt, fx),
         grid_step_(p, cfg.grid_s, fx),
@@ -118,7 +124,7 @@ class PreviewController {
         inv_n_(from_double<T>(1.0 / static_cast<int>(cfg.horizon_s / cfg.grid_s + 0.5))),
         deadband_(from_double<T>(cfg.deadband_mm)),
         n_grid_(static_cast<uint8_t>(cfg.horizon_s / cfg.grid_s + 0.5)),
-        valid_(p.check() == nullptr && fx.check() == nullptr && cfg.check() == nullptr) {
+        valid_(model_valid && cfg.check() == nullptr) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -127,8 +133,8 @@ class PreviewController {
     }
     reset(from_double<T>(p.T_amb + fx.ambient_offset_K), T(0));
   }
-  PreviewController(const PreviewController&) = delete;  // the hysteresis points into curves_
-  PreviewController& operator=(const PreviewController&) = delete;
+  PreviewCore(const PreviewCore&) = delete;  // the hysteresis points into curves_
+  PreviewCore& operator=(const PreviewCore&) = delete;
 
   bool valid() const { return valid_; }
 
@@ -383,8 +389,8 @@ class PreviewController {
   }
 
   PreviewConfig cfg_;
-  PhaseCurves<T> curves_;
-  Thermal<T> thermal_;
+  const PhaseCurves<T>& curves_;
+  const Thermal<T>& thermal_;
   Mechanics<T> mech_;
   WireStep<T> wire_step_;
   ThermalStep<T> grid_step_;
@@ -414,14 +420,31 @@ class PreviewController {
   bool lead_ready_ = false;
 };
 
+// The models a stand-alone preview controller owns (a base: built before PreviewCore).
+template <class T>
+struct PreviewModels {
+  PreviewModels(const Params& p, const Effects& fx) : curves(p), thermal(p, fx) {}
+  PhaseCurves<T> curves;
+  Thermal<T> thermal;
+};
+
+// The preview controller with its own models (the host, tests, benchmarks).
+template <class T>
+class PreviewController : private PreviewModels<T>, public PreviewCore<T> {
+ public:
+  PreviewController(const Params& p, const Effects& fx, const PreviewConfig& cfg)
+      : PreviewModels<T>(p, fx),
+        PreviewCore<T>(this->curves, this->thermal, p, fx, cfg, p.check() == nullptr && fx.check() == nullptr) {}
+};
+
 // The preview as a part of a board that may leave it out (a compile switch, sma/board.hpp):
-// PreviewSlot<T, true> holds a PreviewController built in place (it is not copyable and a
-// board rebuilds it with its models); PreviewSlot<T, false> is empty and does nothing, so the
-// board's calls compile either way and vanish when it is off.
+// PreviewSlot<T, true> holds a PreviewCore on the board's models, built in place (it is not
+// copyable and a board rebuilds it with its models); PreviewSlot<T, false> is empty and does
+// nothing, so the board's calls compile either way and vanish when it is off.
 template <class T, bool On>
 class PreviewSlot {
  public:
-  void build(const Params&, const Effects&, const PreviewConfig&) {}
+  void build(const PhaseCurves<T>&, const Thermal<T>&, const Params&, const Effects&, const PreviewConfig&, bool) {}
   void start(T, T) {}
   void new_reference() {}
   void set_cool_weight(double) {}
@@ -437,8 +460,9 @@ class PreviewSlot<T, true> {
  public:
   PreviewSlot() {}
   ~PreviewSlot() {}
-  void build(const Params& p, const Effects& fx, const PreviewConfig& cfg) {
-    new (&u_.c) PreviewController<T>(p, fx, cfg);
+  void build(const PhaseCurves<T>& curves, const Thermal<T>& thermal, const Params& p, const Effects& fx,
+             const PreviewConfig& cfg, bool model_valid) {
+    new (&u_.c) PreviewCore<T>(curves, thermal, p, fx, cfg, model_valid);
   }
   void start(T T0, T measured) { u_.c.start(T0, measured); }
   void new_reference() { u_.c.new_reference(); }
@@ -448,13 +472,13 @@ class PreviewSlot<T, true> {
   template <class Future>
   bool plan_step(const Future& future) { return u_.c.plan_step(future); }
   T wire_temperature() const { return u_.c.wire_temperature(); }
-  const PreviewController<T>& controller() const { return u_.c; }
+  const PreviewCore<T>& controller() const { return u_.c; }
 
  private:
   union U {
     U() {}
     ~U() {}
-    PreviewController<T> c;
+    PreviewCore<T> c;
   } u_;
 };
 
