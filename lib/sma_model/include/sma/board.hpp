@@ -180,7 +180,7 @@ class Board {
         ctl().set_voltage(from_double<T>(training_voltage(t_ref)));
       }
     } else {
-      ref = ref_at(t_ref);
+      ref = kPreview ? ref_at(t_ref) : gen().at(t_ref);
     }
     T v_cmd = ctl().step(ref, d);
     if (preview_on()) v_cmd = preview().step(ref, Future{this, t_ref}, d);

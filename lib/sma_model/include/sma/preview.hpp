@@ -46,6 +46,9 @@
 #include "scalar.hpp"
 #include "thermal.hpp"
 
+// One copy of the functions a board calls from several places (AVR flash).
+#define SMA_PREVIEW_NOINLINE __attribute__((noinline))
+
 namespace sma {
 
 struct PreviewConfig {
@@ -139,7 +142,7 @@ class PreviewCore {
   bool valid() const { return valid_; }
 
   // Restart at rest: wire at T0 with fraction eps0 (e.g. from a measurement), heating branch.
-  void reset(T T0, T eps0) {
+  SMA_PREVIEW_NOINLINE void reset(T T0, T eps0) {
     est_.reset(T0, eps0);
     T_est_ = T0;
     eps_est_ = est_.eps();
@@ -297,7 +300,7 @@ class PreviewCore {
     restart_plan();
   }
 
-  void restart_plan() {
+  SMA_PREVIEW_NOINLINE void restart_plan() {
     cand_ = 0;
     j_ = 0;
     elapsed_ticks_ = 0;
@@ -305,7 +308,7 @@ class PreviewCore {
     best_ = kNever;
     start_sim();
   }
-  void start_sim() {
+  SMA_PREVIEW_NOINLINE void start_sim() {
     sim_T_ = T_est_;
     sim_h_ = est_;
     sim_heat_ = heating_;
