@@ -38,6 +38,12 @@ typedef float Scalar;
 // Optiboot clears MCUSR and passes it in r2; a plain reset leaves it in MCUSR. Keep both, clear
 // MCUSR and stop a watchdog that survived the reset (it stays on after a watchdog reset).
 uint8_t g_reset_cause __attribute__((section(".noinit")));
+// The heater's gate: Timer1's OC1A (Uno pin 9 = PB1, Mega 2560 pin 11 = PB5).
+#if defined(__AVR_ATmega2560__)
+static const uint8_t kHeaterBit = PB5;
+#else
+static const uint8_t kHeaterBit = PB1;
+#endif
 extern "C" void fw_early_init(void) __attribute__((naked, used, section(".init3")));
 extern "C" void fw_early_init(void) {
   uint8_t r2 = 0;
@@ -49,8 +55,8 @@ extern "C" void fw_early_init(void) {
   MCUSR = 0;
   wdt_disable();
   // Heater gate low as early as possible.
-  PORTB &= static_cast<uint8_t>(~_BV(PB1));
-  DDRB |= _BV(PB1);
+  PORTB &= static_cast<uint8_t>(~_BV(kHeaterBit));
+  DDRB |= _BV(kHeaterBit);
 }
 
 // ---- tick and ADC ISRs -------------------------------------------------------------------------

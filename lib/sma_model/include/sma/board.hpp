@@ -182,8 +182,8 @@ class Board {
     } else {
       ref = kPreview ? ref_at(t_ref) : gen().at(t_ref);
     }
-    T v_cmd = ctl().step(ref, d);
-    if (preview_on()) v_cmd = preview().step(ref, Future{this, t_ref}, d);
+    // (The preview runs instead of the Controller: its wire estimate is the one watched.)
+    const T v_cmd = preview_on() ? preview().step(ref, Future{this, t_ref}, d) : ctl().step(ref, d);
 
     SafetyInput in;
     in.sensor_v = volts;
