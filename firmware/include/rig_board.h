@@ -1,7 +1,8 @@
 // rig_config.h as the constants sma::Board (sma/board.hpp) reads: the one source of the rig's
 // numbers for the firmware, the virtual rig's native mode, the fuzzer and the host tests.
 // Features (all in the one image by default): the model store in EEPROM (pbegin..pinfo), the
-// training run (train), the sensor compensation (calibration undone, lag/delay predicted).
+// training run (train), the sensor compensation (calibration undone, lag/delay predicted);
+// the preview controller only where RIG_FEATURE_PREVIEW is 1.
 #ifndef RIG_BOARD_H
 #define RIG_BOARD_H
 
@@ -15,6 +16,15 @@
 #endif
 #ifndef RIG_FEATURE_COMPENSATE
 #define RIG_FEATURE_COMPENSATE 1
+#endif
+// The preview controller (sma/preview.hpp: `mode preview`, `cool W`, the default for
+// references): ~730 B of RAM and a few KB of flash the Uno's one image does not have yet; on in
+// the Mega image (sma_firmware_mega).
+#ifndef RIG_FEATURE_PREVIEW
+#define RIG_FEATURE_PREVIEW 0
+#endif
+#ifndef SMA_CONSOLE_PREVIEW
+#define SMA_CONSOLE_PREVIEW RIG_FEATURE_PREVIEW
 #endif
 
 struct RigBoard {
@@ -34,6 +44,7 @@ struct RigBoard {
   static constexpr bool model() { return RIG_FEATURE_MODEL != 0; }
   static constexpr bool train() { return RIG_FEATURE_TRAIN != 0; }
   static constexpr bool compensate() { return RIG_FEATURE_COMPENSATE != 0; }
+  static constexpr bool preview() { return RIG_FEATURE_PREVIEW != 0; }
 };
 
 #endif  // RIG_BOARD_H

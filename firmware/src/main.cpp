@@ -33,6 +33,16 @@ typedef float Scalar;
 // Optiboot clears MCUSR and passes it in r2; a plain reset leaves it in MCUSR. Keep both, clear
 // MCUSR and stop a watchdog that survived the reset (it stays on after a watchdog reset).
 uint8_t g_reset_cause __attribute__((section(".noinit")));
+// The heater's gate: Timer1's OC1A (Uno pin 9 = PB1, Mega 2560 pin 11 = PB5); USART0's vectors.
+#if defined(__AVR_ATmega2560__)
+#define SMA_USART_RX_vect USART0_RX_vect
+#define SMA_USART_UDRE_vect USART0_UDRE_vect
+static const uint8_t kHeaterBit = PB5;
+#else
+#define SMA_USART_RX_vect USART_RX_vect
+#define SMA_USART_UDRE_vect USART_UDRE_vect
+static const uint8_t kHeaterBit = PB1;
+#endif
 extern "C" void fw_early_init(void) __attribute__((naked, used, section(".init3")));
 extern "C" void fw_early_init(void) {
   uint8_t r2 = 0;
@@ -44,8 +54,8 @@ extern "C" void fw_early_init(void) {
   MCUSR = 0;
   wdt_disable();
   // Heater gate low as early as possible.
-  PORTB &= static_cast<uint8_t>(~_BV(PB1));
-  DDRB |= _BV(PB1);
+  PORTB &= static_cast<uint8_t>(~_BV(kHeaterBit));
+  DDRB |= _BV(kHeaterBit);
 }
 
 // ---- tick and ADC ISRs -------------------------------------------------------------------------
@@ -131,7 +141,7 @@ static int16_t get() {
 }
 }  // namespace uart
 
-ISR(USART_RX_vect) {
+ISR(SMA_USART_RX_vect) {
   const bool parity_error = (UCSR0A & _BV(UPE0)) != 0;
   const uint8_t c = UDR0;
   const uint8_t next = static_cast<uint8_t>((uart::rx_head + 1) & (SERIAL_RX_BUFFER_SIZE - 1));
@@ -139,7 +149,7 @@ ISR(USART_RX_vect) {
   uart::rx_buf[uart::rx_head] = c;                     // buffer then reports the bad line)
   uart::rx_head = next;
 }
-ISR(USART_UDRE_vect) {
+ISR(SMA_USART_UDRE_vect) {
   if (uart::tx_head == uart::tx_tail) {
     UCSR0B &= static_cast<uint8_t>(~_BV(UDRIE0));
     return;
@@ -299,6 +309,10 @@ static void loop() {
     control_tick();
   }
   g_board.poll();
+  // The preview's planning, one bounded step (<= ~1.4 ms) per pass while >= 2 ms remain.
+#if RIG_FEATURE_PREVIEW
+  if (!g_board.line_waiting() && g_div + 2 < RIG_TIMER2_DIV && !g_tick_pending) g_board.plan();
+#endif
 }
 
 int main() {

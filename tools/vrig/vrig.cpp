@@ -53,7 +53,7 @@ constexpr uint32_t kFreq = 16000000u;
 constexpr uint32_t kPlantCycles = kFreq / 1000u;  // plant step: 1 ms
 constexpr double kPlantDt = 1e-3;
 constexpr uint64_t kAdcFaultCycles = 2u * 13u * 128u;  // two conversions at prescaler 128
-// ATmega328P data-space addresses.
+// ATmega328P data-space addresses (the same on the ATmega2560).
 constexpr uint16_t kGPIOR0 = 0x3E;
 constexpr uint16_t kTCCR1A = 0x80;
 constexpr uint16_t kICR1L = 0x86;
@@ -66,6 +66,7 @@ struct ScriptLine {
 
 struct Options {
   std::string elf;
+  std::string mcu = "atmega328p";  // --mcu: the Uno's, or atmega2560 (the Mega image)
   std::string script, log, cycles_json;
   double duration = 10.0;
   double speed = 1.0;  // --realtime pacing: simulated seconds per wall-clock second
@@ -110,6 +111,7 @@ void usage() {
           "  --sensor-fault T[:MV]  from T s on, drive ADC0 to MV millivolts (default 5000)\n"
           "  --flood T1:T2       flood UART input with random bytes between T1 and T2 s\n"
           "  --wdrf              start as after a watchdog reset (MCUSR.WDRF set)\n"
+          "  --mcu NAME          atmega328p (default, the Uno) or atmega2560 (sma_firmware_mega)\n"
           "  --native            run the console+controller natively instead of the ELF\n"
           "                      (FIRMWARE.elf is then ignored, pass '-')\n"
           "  --stamp             prefix each printed line with the simulated time\n"
@@ -486,7 +488,7 @@ void (*g_chained_reset)(avr_t*) = nullptr;
 bool g_wdrf_at_reset = false;
 void paint_reset(avr_t* avr) {
   if (g_chained_reset) g_chained_reset(avr);
-  for (uint32_t a = 0x100; a <= avr->ramend; ++a) avr->data[a] = 0xA5;
+  for (uint32_t a = avr->ioend + 1u; a <= avr->ramend; ++a) avr->data[a] = 0xA5;  // SRAM only
   if (g_wdrf_at_reset) avr->data[0x54] |= 0x08;  // MCUSR.WDRF
 }
 
@@ -571,11 +573,14 @@ int run_avr(Rig& rig) {
     fprintf(stderr, "vrig: cannot read ELF %s\n", rig.opt.elf.c_str());
     return 2;
   }
-  strcpy(f.mmcu, "atmega328p");
+  snprintf(f.mmcu, sizeof f.mmcu, "%s", rig.opt.mcu.c_str());
   f.frequency = kFreq;
   f.vcc = f.avcc = f.aref = 5000;
   avr_t* avr = avr_make_mcu_by_name(f.mmcu);
-  if (!avr) return 2;
+  if (!avr) {
+    fprintf(stderr, "vrig: --mcu %s: not an MCU simavr knows\n", f.mmcu);
+    return 2;
+  }
   avr_init(avr);
   avr_load_firmware(avr, &f);
   if (!rig.opt.eeprom.empty() && !eeprom_io(avr, rig.opt.eeprom, false)) return 2;
@@ -637,7 +642,7 @@ int run_avr(Rig& rig) {
   {
     // Longest run of paint below RAMEND's stack: the free margin between .bss/heap and stack.
     uint32_t best = 0, run = 0;
-    for (uint32_t a = 0x100; a <= avr->ramend; ++a) {
+    for (uint32_t a = avr->ioend + 1u; a <= avr->ramend; ++a) {
       run = avr->data[a] == 0xA5 ? run + 1 : 0;
       if (run > best) best = run;
     }
@@ -770,6 +775,7 @@ int main(int argc, char** argv) {
     else if (a == "--speed") o.speed = atof(val());
     else if (a == "--native") o.native = true;
     else if (a == "--wdrf") o.wdrf = true;
+    else if (a == "--mcu") o.mcu = val();
     else if (a == "--quiet") o.quiet = true;
     else if (a == "--stamp") o.stamp = true;
     else if (a == "--noise-mm") o.noise_mm = atof(val());

@@ -45,6 +45,7 @@ inline void* operator new(size_t, void* place) noexcept { return place; }
 #endif
 #include "console.hpp"
 #include "controller.hpp"
+#include "preview.hpp"
 #include "reference.hpp"
 #include "safety.hpp"
 #include "scalar.hpp"
@@ -56,9 +57,21 @@ inline void* operator new(size_t, void* place) noexcept { return place; }
 
 namespace sma {
 
+namespace detail {
+// Rig::preview(), or false for a rig that does not name the feature.
+template <class R>
+constexpr auto rig_preview(int) -> decltype(R::preview()) { return R::preview(); }
+template <class R>
+constexpr bool rig_preview(long) { return false; }
+}  // namespace detail
+
 template <class T, class Rig, class Hw>
 class Board {
  public:
+  // The preview controller (sma/preview.hpp, Rig::preview()): `mode preview`, `cool W`, the
+  // default for references; it plans between ticks (plan()).
+  static constexpr bool kPreview = detail::rig_preview<Rig>(0);
+  static_assert(!kPreview || SMA_CONSOLE_PREVIEW, "the preview needs its console rows (SMA_CONSOLE_PREVIEW 1)");
   typedef Controller<T> Ctl;
   typedef ReferenceGen<T> Gen;
   typedef console::LineBuffer::Status LineStatus;
@@ -66,6 +79,9 @@ class Board {
   explicit Board(Hw hw = Hw()) : store_(hw), safety_(safety_config()) {
     initial_state(&state_.s);
     state_.s.tlim_C = Rig::t_limit_C();
+#if SMA_CONSOLE_PREVIEW
+    if (kPreview) state_.s.mode = state_.s.loop_mode = Mode::Preview;
+#endif
   }
   Board(const Board&) = delete;
   Board& operator=(const Board&) = delete;
@@ -144,7 +160,7 @@ class Board {
     const float mm = static_cast<float>(Rig::sensor_mm_per_v()) * volts +
                      static_cast<float>(Rig::sensor_offset_mm());
     // The position the controller acts on: calibration undone, lag and delay compensated.
-    const T d = Rig::compensate() ? sensor().correct(from_double<T>(mm), ctl().wire_temperature())
+    const T d = Rig::compensate() ? sensor().correct(from_double<T>(mm), wire_temperature())
                                   : from_double<T>(mm);
     v_.x.last_d_ = d;
 
@@ -161,15 +177,16 @@ class Board {
         ctl().set_voltage(from_double<T>(training_voltage(t_ref)));
       }
     } else {
-      ref = gen().at(t_ref);
+      ref = kPreview ? ref_at(t_ref) : gen().at(t_ref);
     }
-    const T v_cmd = ctl().step(ref, d);
+    // (The preview runs instead of the Controller: its wire estimate is the one watched.)
+    const T v_cmd = preview_on() ? preview().step(ref, Future{this, t_ref}, d) : ctl().step(ref, d);
 
     SafetyInput in;
     in.sensor_v = volts;
     in.samples_in_range = adc_bad == 0 && adc_n > 0;
     in.measured_mm = mm;
-    in.wire_temp_C = static_cast<float>(to_double(ctl().wire_temperature()));
+    in.wire_temp_C = static_cast<float>(to_double(wire_temperature()));
     in.command_v = static_cast<float>(to_double(v_cmd));
     in.heating = state_.s.heat;
     const float v = static_cast<float>(safety_.gate(in));
@@ -209,6 +226,11 @@ class Board {
     if (v_.x.fault_due_) announce_fault();
   }
 
+  // Between ticks, when the caller has ~2 ms before the next one: one bounded step of the
+  // preview's plan (PreviewController::plan_step, <= ~22 k AVR cycles in float). True when a plan
+  // completed. Never from an interrupt that can preempt control().
+  SMA_NOINLINE bool plan() { return preview_on() && preview().plan_step(Future{this, static_cast<float>(live_.x.t_ref_s)}); }
+
   // Outside the tick: a training run that ended (its storage back to a generator, the line).
   void poll() {
     if (!Rig::train()) return;
@@ -246,6 +268,7 @@ class Board {
     lim.v_max = Rig::v_max();
     lim.model = Rig::model();
     lim.train = Rig::train();
+    lim.preview = kPreview;
     lim.single = true;
     return lim;
   }
@@ -296,6 +319,7 @@ class Board {
   struct Models {
     Ctl ctl;
     SensorPredictor<T> sensor;
+    PreviewSlot<T, kPreview> preview;
   };
   union ModelStore {
     ModelStore() {}
@@ -331,6 +355,27 @@ class Board {
   const Ctl& ctl() const { return models_.m.ctl; }
   SensorPredictor<T>& sensor() { return models_.m.sensor; }
   Gen& gen() { return gen_.gen; }
+  PreviewSlot<T, kPreview>& preview() { return models_.m.preview; }
+  bool preview_on() const { return kPreview && ctl().mode() == Mode::Preview; }
+  // The wire temperature estimate of the controller running (the latch and the compensation).
+  T wire_temperature() const { return preview_on() ? models_.m.preview.wire_temperature() : ctl().wire_temperature(); }
+  // The reference tau seconds after t (the preview's view of the known future).
+  struct Future {
+    Board* b;
+    float t;
+    T operator()(T tau) const { return b->ref_at(t + static_cast<float>(to_double(tau))); }
+  };
+  // The reference at t (one copy of ReferenceGen::at for the tick and the preview's future).
+  SMA_NOINLINE T ref_at(float t) { return gen().at(t); }
+  static PreviewConfig preview_config() {
+    PreviewConfig c;
+    c.dt = 1.0 / Rig::tick_hz();
+    c.v_max = Rig::v_max();
+    c.v_supply = Rig::v_supply();
+    c.pwm_top = static_cast<uint16_t>(Rig::pwm_top());
+    c.plan_in_step = false;
+    return c;
+  }
 
   void send() {
     if (reply_.x.len && !store_.eeprom().line(reply_.x.text, reply_.x.len) && live_.x.dropped < 0xFFFFu)
@@ -350,6 +395,10 @@ class Board {
     new (&models_.m.ctl) Ctl(p, fx, *cfg);
     if (Rig::compensate())
       new (&models_.m.sensor) SensorPredictor<T>(ctl().inverse().curves(), p, fx, 1.0 / Rig::tick_hz());
+    if (kPreview) {
+      preview().build(ctl().inverse().curves(), ctl().inverse().thermal(), p, fx, preview_config(), ctl().valid());
+      preview().set_cool_weight(state_.s.cool_weight);
+    }
     v_.x.g_mm_ = static_cast<float>(p.g < Rig::stroke_mm() ? p.g : Rig::stroke_mm());
     store_.eeprom().irq_restore(s);
   }
@@ -506,12 +555,15 @@ class Board {
     if (c.op == Op::Tlim) safety_.set_limit(state_.s.tlim_C);
     if (c.op == Op::Volt || c.op == Op::Train) ctl().set_voltage(from_double<T>(state_.s.volt));
     const Mode m = state_.s.active_mode();
+    if (kPreview && m == Mode::Preview && m != ctl().mode()) preview().start(ctl().wire_temperature(), v_.x.last_d_);
     if (m != ctl().mode()) ctl().set_mode(m, v_.x.last_d_);
+    if (kPreview && c.op == Op::Cool) preview().set_cool_weight(state_.s.cool_weight);
     if (c.op == Op::Gains || c.op == Op::SetMode) ctl().set_gains(state_.s.gains());
     if (state_.s.run != v_.x.run_seen_) {
       v_.x.run_seen_ = state_.s.run;
       start_reference();
       v_.x.run_start_ = v_.x.ticks_;
+      preview().new_reference();
     }
     // The header once per start of the rows (tele on after off or plot).
     if (c.op == Op::Tele && state_.s.tele && !state_.s.plot && !rows_before) v_.x.header_due_ = true;

@@ -12,7 +12,7 @@
 // | traj clear           | forget the trajectory points                            |            |
 // | traj <t_s> <mm>      | add a point (time increasing, at most 16)               | 0..3600 s  |
 // | traj run             | run the trajectory (linear between points, then hold)   |            |
-// | mode open|pid|ff|ffpid | select the controller (live if heating)               |            |
+// | mode open|pid|ff|ffpid|preview | select the controller (live if heating); preview where Limits::preview | |
 // | volt <V>             | open-loop voltage; selects mode open, heater on         | 0..2 V     |
 // | gains <kp> <ki> <kd> | PID gains of the selected PID mode (pid or ffpid)       | 0..1000    |
 // | tlim <degC>          | wire temperature limit of the safety latch              | 30..150    |
@@ -21,6 +21,7 @@
 // | status               | one line: mode, reference, measurement, fault           |            |
 // | stop                 | heater off (mode off), clears a latched fault           |            |
 // | help                 | list the commands                                       |            |
+// | cool <W>             | preview: weight of errors while the reference falls (sma/preview.hpp cool_weight; where Limits::preview) | 0..100 |
 // | train [slope]        | the paper's training signal open loop (sma/training.hpp), then heater off | 0.0001..1 V/s |
 // | pbegin               | start a new model set in the inactive EEPROM slot (copy of the active one) | |
 // | pset <key> <value>   | write one value of the staged set: `OK pset <key> 0x<float32 bits read back>` | per key |

@@ -36,12 +36,18 @@
 #ifndef SMA_PREVIEW_HPP
 #define SMA_PREVIEW_HPP
 
+#if !defined(__AVR__)
+#include <new>  // placement new of PreviewSlot (the AVR board provides its own, sma/board.hpp)
+#endif
 #include "effects.hpp"
 #include "hysteresis.hpp"
 #include "mechanics.hpp"
 #include "params.hpp"
 #include "scalar.hpp"
 #include "thermal.hpp"
+
+// One copy of the functions a board calls from several places (AVR flash).
+#define SMA_PREVIEW_NOINLINE __attribute__((noinline))
 
 namespace sma {
 
@@ -90,17 +96,23 @@ struct PreviewConfig {
   }
 };
 
+// The controller on model boxes it shares with its owner: the phase curves and the thermal model
+// (eqs 1-17) of a board's inverse model (sma/controller.hpp), which must outlive it.
 template <class T>
-class PreviewController {
+class PreviewCore {
  public:
   static constexpr uint8_t kMaxGrid = 40;
   static constexpr uint8_t kCandidates = 7;
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
 
-  PreviewController(const Params& p, const Effects& fx, const PreviewConfig& cfg)
+  // curves and thermal: built from p and fx. model_valid: the caller's verdict on p and fx
+  // (Params::check, Effects::check), e.g. a board's Controller built from the same set (on AVR a
+  // second caller of check() keeps its messages in RAM: ~600 B).
+  PreviewCore(const PhaseCurves<T>& curves, const Thermal<T>& thermal, const Params& p, const Effects& fx,
+              const PreviewConfig& cfg, bool model_valid)
       : cfg_(cfg),
-        curves_(p),
-        thermal_(p, fx),
+        curves_(curves),
+        thermal_(thermal),
         mech_(p),
         wire_step_(thermal_, p, cfg.dt, fx),
         grid_step_(p, cfg.grid_s, fx),
@@ -115,7 +127,7 @@ class PreviewController {
         inv_n_(from_double<T>(1.0 / static_cast<int>(cfg.horizon_s / cfg.grid_s + 0.5))),
         deadband_(from_double<T>(cfg.deadband_mm)),
         n_grid_(static_cast<uint8_t>(cfg.horizon_s / cfg.grid_s + 0.5)),
-        valid_(p.check() == nullptr && fx.check() == nullptr && cfg.check() == nullptr) {
+        valid_(model_valid && cfg.check() == nullptr) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -124,13 +136,13 @@ class PreviewController {
     }
     reset(from_double<T>(p.T_amb + fx.ambient_offset_K), T(0));
   }
-  PreviewController(const PreviewController&) = delete;  // the hysteresis points into curves_
-  PreviewController& operator=(const PreviewController&) = delete;
+  PreviewCore(const PreviewCore&) = delete;  // the hysteresis points into curves_
+  PreviewCore& operator=(const PreviewCore&) = delete;
 
   bool valid() const { return valid_; }
 
   // Restart at rest: wire at T0 with fraction eps0 (e.g. from a measurement), heating branch.
-  void reset(T T0, T eps0) {
+  SMA_PREVIEW_NOINLINE void reset(T T0, T eps0) {
     est_.reset(T0, eps0);
     T_est_ = T0;
     eps_est_ = est_.eps();
@@ -144,6 +156,26 @@ class PreviewController {
     v_ = T(0);
     lead_ready_ = false;
     restart_plan();
+  }
+
+  // Restart at the measured displacement (mm): the model wire at T0 with the fraction the
+  // measurement implies (eq 14) - a board entering this controller from another one.
+  void start(T T0, T measured) {
+    reset(T0, is_finite(measured) ? mech_.fraction(measured) : T(0));
+  }
+  // A new reference (its clock restarted): the plan in progress sampled the old one.
+  void new_reference() {
+    have_ref_ = false;
+    lead_ready_ = false;
+    switch_due_ = 0;
+    restart_plan();
+  }
+  // The trade-off setting (PreviewConfig::cool_weight, 0..100); out of range: unchanged.
+  bool set_cool_weight(double w) {
+    if (!(w >= 0.0 && w <= 100.0)) return false;
+    cfg_.cool_weight = w;
+    cool_w_ = from_double<T>(w);
+    return true;
   }
 
   // One tick: reference now, its future (future(tau_s) = reference tau_s ahead) and the
@@ -268,7 +300,7 @@ class PreviewController {
     restart_plan();
   }
 
-  void restart_plan() {
+  SMA_PREVIEW_NOINLINE void restart_plan() {
     cand_ = 0;
     j_ = 0;
     elapsed_ticks_ = 0;
@@ -276,7 +308,7 @@ class PreviewController {
     best_ = kNever;
     start_sim();
   }
-  void start_sim() {
+  SMA_PREVIEW_NOINLINE void start_sim() {
     sim_T_ = T_est_;
     sim_h_ = est_;
     sim_heat_ = heating_;
@@ -360,8 +392,8 @@ class PreviewController {
   }
 
   PreviewConfig cfg_;
-  PhaseCurves<T> curves_;
-  Thermal<T> thermal_;
+  const PhaseCurves<T>& curves_;
+  const Thermal<T>& thermal_;
   Mechanics<T> mech_;
   WireStep<T> wire_step_;
   ThermalStep<T> grid_step_;
@@ -389,6 +421,68 @@ class PreviewController {
   // The reference track_s after the next tick, sampled between ticks by plan_step().
   T lead_ = T(0);
   bool lead_ready_ = false;
+};
+
+// The models a stand-alone preview controller owns (a base: built before PreviewCore).
+template <class T>
+struct PreviewModels {
+  PreviewModels(const Params& p, const Effects& fx) : curves(p), thermal(p, fx) {}
+  PhaseCurves<T> curves;
+  Thermal<T> thermal;
+};
+
+// The preview controller with its own models (the host, tests, benchmarks).
+template <class T>
+class PreviewController : private PreviewModels<T>, public PreviewCore<T> {
+ public:
+  PreviewController(const Params& p, const Effects& fx, const PreviewConfig& cfg)
+      : PreviewModels<T>(p, fx),
+        PreviewCore<T>(this->curves, this->thermal, p, fx, cfg, p.check() == nullptr && fx.check() == nullptr) {}
+};
+
+// The preview as a part of a board that may leave it out (a compile switch, sma/board.hpp):
+// PreviewSlot<T, true> holds a PreviewCore on the board's models, built in place (it is not
+// copyable and a board rebuilds it with its models); PreviewSlot<T, false> is empty and does
+// nothing, so the board's calls compile either way and vanish when it is off.
+template <class T, bool On>
+class PreviewSlot {
+ public:
+  void build(const PhaseCurves<T>&, const Thermal<T>&, const Params&, const Effects&, const PreviewConfig&, bool) {}
+  void start(T, T) {}
+  void new_reference() {}
+  void set_cool_weight(double) {}
+  template <class Future>
+  T step(T, const Future&, T) { return T(0); }
+  template <class Future>
+  bool plan_step(const Future&) { return false; }
+  T wire_temperature() const { return T(0); }
+};
+
+template <class T>
+class PreviewSlot<T, true> {
+ public:
+  PreviewSlot() {}
+  ~PreviewSlot() {}
+  void build(const PhaseCurves<T>& curves, const Thermal<T>& thermal, const Params& p, const Effects& fx,
+             const PreviewConfig& cfg, bool model_valid) {
+    new (&u_.c) PreviewCore<T>(curves, thermal, p, fx, cfg, model_valid);
+  }
+  void start(T T0, T measured) { u_.c.start(T0, measured); }
+  void new_reference() { u_.c.new_reference(); }
+  void set_cool_weight(double w) { u_.c.set_cool_weight(w); }
+  template <class Future>
+  T step(T ref, const Future& future, T measured) { return u_.c.step(ref, future, measured); }
+  template <class Future>
+  bool plan_step(const Future& future) { return u_.c.plan_step(future); }
+  T wire_temperature() const { return u_.c.wire_temperature(); }
+  const PreviewCore<T>& controller() const { return u_.c; }
+
+ private:
+  union U {
+    U() {}
+    ~U() {}
+    PreviewCore<T> c;
+  } u_;
 };
 
 }  // namespace sma

@@ -76,7 +76,7 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
         s.run_kind = c.op == Op::Step ? RefKind::MultiStep
                      : c.op == Op::Sine ? RefKind::Sine : RefKind::Trajectory;
       }
-      if (s.mode == Mode::OpenLoop) s.mode = Mode::FeedforwardPid;  // a reference needs a loop
+      if (s.mode == Mode::OpenLoop) s.mode = s.loop_mode;  // a reference needs a loop
       s.heat = true;
       ++s.run;
       reply.put(' ');
@@ -121,6 +121,13 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
       reply.put(' ');
       reply.put_fixed(c.a, 1);
       break;
+#if SMA_CONSOLE_PREVIEW
+    case Op::Cool:
+      s.cool_weight = c.a;
+      reply.put(' ');
+      reply.put_fixed(c.a, 2);
+      break;
+#endif
     case Op::Tele:  // (c.mode carries the row's value)
       s.tele = c.on;
       s.plot = static_cast<uint8_t>(c.mode) == kTelePlot;
@@ -131,6 +138,9 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
         Limits lim;
         lim.model = (c.key & kModelCmd) != 0;
         lim.train = (c.key & kTrainCmd) != 0;
+#if SMA_CONSOLE_PREVIEW
+        lim.preview = c.on;
+#endif
         put_help(reply, lim);
       }
       break;

@@ -115,17 +115,36 @@ enum Prop : uint8_t {
 };
 // The numbers: name (in the errors) and range. Upper bound -1: the stroke (Limits::g_mm), -2:
 // Limits::v_max.
-enum Arg : uint8_t { kNoArg, kArgMm, kArgV, kArgKp, kArgKi, kArgKd, kArgDegC, kArgTs, kArgSlope, kArgValue };
+enum Arg : uint8_t { kNoArg, kArgMm, kArgV, kArgKp, kArgKi, kArgKd, kArgDegC, kArgTs, kArgSlope, kArgValue, kArgW };
 namespace detail {
+#if SMA_CONSOLE_PREVIEW
+inline const char* arg_names() { return SMA_F("- mm V kp ki kd degC t_s slope value W"); }
+#else
 inline const char* arg_names() { return SMA_F("- mm V kp ki kd degC t_s slope value"); }
+#endif
 static SMA_STORAGE_TABLE double kArgRange[][2] = {
-    {0, 0}, {0, -1}, {0, -2}, {0, 999}, {0, 999}, {0, 999}, {30, 150}, {0, kTrajMaxS}, {0.0001, 1}, {0, 0}};
+    {0, 0}, {0, -1}, {0, -2}, {0, 999}, {0, 999}, {0, 999}, {30, 150}, {0, kTrajMaxS}, {0.0001, 1}, {0, 0},
+#if SMA_CONSOLE_PREVIEW
+    {0, 100},
+#endif
+};
+#if SMA_CONSOLE_PREVIEW
+#define SMA_PREVIEW_WORD "mode "
+#define SMA_PREVIEW_SUB "preview "
+#define SMA_COOL_WORD "cool "
+#define SMA_COOL_SUB "- "
+#else
+#define SMA_PREVIEW_WORD
+#define SMA_PREVIEW_SUB
+#define SMA_COOL_WORD
+#define SMA_COOL_SUB
+#endif
 inline const char* command_words() {
-  return SMA_F("pos step sine traj traj traj mode mode mode mode volt gains tlim tele tele tele status stop help "
-               "train pbegin pset pget pcommit pabort pinfo");
+  return SMA_F("pos step sine traj traj traj mode mode mode mode " SMA_PREVIEW_WORD "volt gains tlim tele tele tele status stop help "
+               "train " SMA_COOL_WORD "pbegin pset pget pcommit pabort pinfo");
 }
 inline const char* command_subs() {
-  return SMA_F("- - - clear run - open pid ff ffpid - - - on off plot - - - - - - - - - -");
+  return SMA_F("- - - clear run - open pid ff ffpid " SMA_PREVIEW_SUB "- - - on off plot - - - - " SMA_COOL_SUB "- - - - - -");
 }
 struct CommandRow {
   Op op;
@@ -145,6 +164,9 @@ static SMA_STORAGE_TABLE CommandRow kCommandRows[] = {
     {Op::SetMode, static_cast<uint8_t>(Mode::Pid), kEndsTraining | kSameWord, {0, 0, 0}},
     {Op::SetMode, static_cast<uint8_t>(Mode::Feedforward), kEndsTraining | kSameWord, {0, 0, 0}},
     {Op::SetMode, static_cast<uint8_t>(Mode::FeedforwardPid), kEndsTraining | kSameWord, {0, 0, 0}},
+#if SMA_CONSOLE_PREVIEW
+    {Op::SetMode, static_cast<uint8_t>(Mode::Preview), kEndsTraining | kSameWord, {0, 0, 0}},
+#endif
     {Op::Volt, 0, kEnds, {kArgV, 0, 0}},
     {Op::Gains, 0, 0, {kArgKp, kArgKi, kArgKd}},
     {Op::Tlim, 0, 0, {kArgDegC, 0, 0}},
@@ -155,6 +177,9 @@ static SMA_STORAGE_TABLE CommandRow kCommandRows[] = {
     {Op::Stop, 0, kEndsTraining, {0, 0, 0}},
     {Op::Help, 0, 0, {0, 0, 0}},
     {Op::Train, 0, kHeats | kTrainCmd | kOptional, {kArgSlope, 0, 0}},
+#if SMA_CONSOLE_PREVIEW
+    {Op::Cool, 0, 0, {kArgW, 0, 0}},
+#endif
     {Op::PBegin, 0, kModelCmd | kCold, {0, 0, 0}},
     {Op::PSet, 0, kModelCmd | kCold | kKeyed, {kArgValue, 0, 0}},
     {Op::PGet, 0, kModelCmd | kKeyed, {0, 0, 0}},
@@ -182,7 +207,12 @@ inline double arg_bound(uint8_t arg, uint8_t hi, const Limits& lim) {
   return b == -1.0 ? lim.g_mm : b == -2.0 ? lim.v_max : b;
 }
 // Does row r exist in this build?
+// (The preview's rows, `mode preview` and `cool`, by their Op: no property bit is left.)
 inline bool row_exists(const CommandRow& row, const Limits& lim) {
+#if SMA_CONSOLE_PREVIEW
+  const bool preview_row = row.op == Op::Cool || (row.op == Op::SetMode && row.value == static_cast<uint8_t>(Mode::Preview));
+  if (preview_row && !lim.preview) return false;
+#endif
   return !((row.props & kModelCmd) && !lim.model) && !((row.props & kTrainCmd) && !lim.train);
 }
 // Word n of a flash list equals tok[0..len)?
@@ -281,10 +311,14 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
   if (last > first) {  // keywords: `mode open`, `tele on`, `traj clear` ...
     r = first;
     while (r <= last && has_sub(r) && !word_is(command_subs(), r, tok, len)) ++r;
-    if (r > last || (len == 0 && !has_sub(r))) {  // "expected a, b or <t_s> <mm>"
+    // (A keyword row that does not exist in this build is not a keyword: `mode preview`.)
+    if (r > last || (len == 0 && !has_sub(r)) || (SMA_CONSOLE_PREVIEW && !row_exists(command_row(r), lim))) {
+      // "expected a, b or <t_s> <mm>"
+      while (SMA_CONSOLE_PREVIEW && !row_exists(command_row(last), lim)) --last;  // (the word's first row exists)
       err_head();
       reply.put_f(SMA_F("expected "));
       for (uint8_t k = first; k <= last; ++k) {
+        if (SMA_CONSOLE_PREVIEW && !row_exists(command_row(k), lim)) continue;
         if (k > first) reply.put_f(k == last ? SMA_F(" or ") : SMA_F(", "));
         if (has_sub(k)) {
           storage::detail::put_word(reply, command_subs(), k);
@@ -384,7 +418,12 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
   c.a = v[0];
   c.b = v[1];
   c.c = v[2];
-  if (c.op == Op::Help) c.key = static_cast<uint8_t>((lim.model ? kModelCmd : 0) | (lim.train ? kTrainCmd : 0));
+  if (c.op == Op::Help) {
+    c.key = static_cast<uint8_t>((lim.model ? kModelCmd : 0) | (lim.train ? kTrainCmd : 0));
+#if SMA_CONSOLE_PREVIEW
+    c.on = lim.preview;
+#endif
+  }
   cmd = c;
   return true;
 }

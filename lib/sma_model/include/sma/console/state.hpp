@@ -11,6 +11,14 @@
 #include "../safety.hpp"
 #include "../scalar.hpp"
 
+// The preview controller's rows (`mode preview`, `cool W`) in the command table: 1 (the host's
+// default) or 0 for a board built without the preview (firmware/include/rig_board.h: ~200 B of
+// flash for rows, words and checks it could never use). Where they are compiled in,
+// Limits::preview still decides whether they exist.
+#ifndef SMA_CONSOLE_PREVIEW
+#define SMA_CONSOLE_PREVIEW 1
+#endif
+
 namespace sma {
 namespace console {
 
@@ -43,6 +51,9 @@ inline const char* mode_name_f(Mode m) {
     case Mode::Pid: return SMA_F("pid");
     case Mode::Feedforward: return SMA_F("ff");
     case Mode::FeedforwardPid: return SMA_F("ffpid");
+#if SMA_CONSOLE_PREVIEW
+    case Mode::Preview: return SMA_F("preview");
+#endif
     default: return SMA_F("off");
   }
 }
@@ -53,12 +64,20 @@ struct Limits {
   double v_max = 2.0;   // volt in 0..v_max
   bool model = true;    // the model commands (pbegin ...) exist in this build
   bool train = true;    // train exists in this build
+  bool preview = false; // the preview controller (mode preview, cool) exists in this build
   bool single = false;  // numbers in float arithmetic (sma::Board: as on the AVR)
 };
 
 // What the console controls. The firmware applies it to the controller and the safety latch.
 struct State {
   Mode mode = Mode::FeedforwardPid;  // selected controller (never Off; `stop` clears heat)
+#if SMA_CONSOLE_PREVIEW
+  Mode loop_mode = Mode::FeedforwardPid;  // the controller a reference starts after open loop
+  double cool_weight = 1.0;  // the preview's heating/cooling trade-off (cool W, PreviewConfig)
+#else
+  static constexpr Mode loop_mode = Mode::FeedforwardPid;
+  static constexpr double cool_weight = 1.0;
+#endif
   bool heat = false;                 // heater allowed: false at boot and after stop or a trip
   double volt = 0.0;                 // open-loop voltage
   PidGains gains_pid = kGainsPid;
@@ -100,7 +119,7 @@ constexpr uint8_t kTelePlot = 2;
 
 enum class Op : uint8_t {
   Empty, Pos, Step, Sine, TrajClear, TrajPoint, TrajRun, SetMode, Volt, Gains, Tlim, Tele,
-  Status, Stop, Help, Train, PBegin, PSet, PGet, PCommit, PAbort, PInfo
+  Status, Stop, Help, Train, Cool, PBegin, PSet, PGet, PCommit, PAbort, PInfo
 };
 
 // Model commands: executed by the firmware on its EEPROM (model_command()), not by apply().

@@ -1,0 +1,98 @@
+#!/usr/bin/env python3
+"""Firmware in the loop: the preview controller on the image that has it (the Mega 2560 image,
+RIG_FEATURE_PREVIEW=1) against inverse + PID on the same ELF, in the virtual rig (2 um noise).
+
+    fil_preview.py --vrig BUILD/tools/vrig/vrig --elf BUILD/firmware/sma_firmware_mega.elf \\
+                   --metrics BUILD/tools/host/sma_metrics --out DIR
+
+Runs (the controller chosen by `mode`, the trade-off by `cool 1`): the paper's sine, 100 s (the
+scored period is the second: sma_metrics drops the first), and the multi-step's first 125 s (up-steps
+and the 0.8 -> 0.5 mm down-step). Metrics of sma_metrics on the measured position, whole run with the
+falling phase (issue 13). Pass: sine max <= 0.12 mm, RMS <= 0.05 mm, falling max <= 0.12 mm, each
+below inverse + PID's; steps RMS <= 0.05 mm and below inverse + PID's, falling max below it,
+wrong-way <= 0.03 mm. Prints the table and writes DIR/fil_preview.json.
+"""
+import argparse
+import concurrent.futures
+import json
+import os
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from paper_tests import metrics, read_log  # noqa: E402
+
+RUNS = (("sine", "sine", 100.0), ("steps", "step", 125.0))
+MODES = (("preview", "preview"), ("ffpid", "inverse + PID"))
+
+
+def run(a, test, command, duration, mode):
+    log = os.path.join(a.out, f"{test}_{mode}.csv")
+    script = log + ".script"
+    with open(script, "w") as f:
+        f.write(f"0.0 tele on\n0.02 mode {mode}\n0.03 cool 1\n0.05 {command}\n")
+    cyc = os.path.join(a.out, f"{test}_{mode}_cycles.json")
+    cmd = [a.vrig, a.elf, "--mcu", a.mcu, "--script", script, "--duration", str(duration + 0.2), "--log", log,
+           "--noise-mm", "0.002", "--quiet", "--cycles-json", cyc]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"vrig failed ({' '.join(cmd)}):\n{r.stderr[-2000:]}")
+    d = read_log(log)
+    start = float(d["t_s"][d["ref_mm"] > 0][0])  # the reference starts with the command
+    m = metrics(a.metrics, log, test, start)
+    with open(cyc) as f:
+        m["cycles"] = json.load(f)
+    return m
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--vrig", required=True)
+    ap.add_argument("--elf", required=True)
+    ap.add_argument("--mcu", default="atmega2560")
+    ap.add_argument("--metrics", required=True, help="sma_metrics")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--jobs", type=int, default=2)
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    res = {}
+    with concurrent.futures.ThreadPoolExecutor(a.jobs) as pool:
+        futs = {pool.submit(run, a, t, c, d, m): (t, m) for t, c, d in RUNS for m, _ in MODES}
+        for fu in concurrent.futures.as_completed(futs):
+            t, m = futs[fu]
+            res[f"{t}_{m}"] = fu.result()
+
+    print("| test | controller | max mm | RMS mm | max rise | max fall | wrong-way | SSE mm | control cycles max/mean |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for t, _, _ in RUNS:
+        for m, label in MODES:
+            r = res[f"{t}_{m}"]
+            c = r["cycles"]
+            print(f"| {t} | {label} | {r['max_mm']:.4f} | {r['rms_mm']:.4f} | {r['max_rise_mm']:.4f} | "
+                  f"{r['max_fall_mm']:.4f} | {r['wrong_way_mm']:.4f} | {r['sse_mm']:.4f} | "
+                  f"{c['control_cycles_max']}/{c['control_cycles_mean']:.0f} |")
+    with open(os.path.join(a.out, "fil_preview.json"), "w") as f:
+        json.dump(res, f, indent=1)
+
+    s, sf = res["sine_preview"], res["sine_ffpid"]
+    p, pf = res["steps_preview"], res["steps_ffpid"]
+    checks = [
+        ("sine max <= 0.12 mm", s["max_mm"] <= 0.12),
+        ("sine RMS <= 0.05 mm", s["rms_mm"] <= 0.05),
+        ("sine falling max <= 0.12 mm", s["max_fall_mm"] <= 0.12),
+        ("sine max below inverse + PID", s["max_mm"] < sf["max_mm"]),
+        ("sine RMS below inverse + PID", s["rms_mm"] < sf["rms_mm"]),
+        ("sine falling max below inverse + PID", s["max_fall_mm"] < sf["max_fall_mm"]),
+        ("steps RMS <= 0.05 mm", p["rms_mm"] <= 0.05),
+        ("steps RMS below inverse + PID", p["rms_mm"] < pf["rms_mm"]),
+        ("steps falling max below inverse + PID", p["max_fall_mm"] < pf["max_fall_mm"]),
+        ("steps wrong-way <= 0.03 mm", p["wrong_way_mm"] <= 0.03),
+    ]
+    bad = [n for n, ok in checks if not ok]
+    for n, ok in checks:
+        print(("PASS " if ok else "FAIL ") + n)
+    sys.exit(1 if bad else 0)
+
+
+if __name__ == "__main__":
+    main()
