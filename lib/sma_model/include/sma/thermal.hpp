@@ -78,20 +78,19 @@ struct Thermal {
 };
 
 // Eq 1 discretised exactly for a constant V over dt (zero-order hold, as the PWM holds V for
-// one tick): T' = T_a + a (T - T_a) + b V^2, a = exp(-dt/tau), b = (1 - a) / (R G), evaluated
-// as a T + (1 - a) T_a + b V^2 with the middle term a constant.
-// Used by the on-board temperature estimate: three multiplies a tick, exact for any dt.
+// one tick): T' = T_a + a (T - T_a) + b V^2, a = exp(-dt/tau), b = (1 - a) / (R G).
+// Used by the on-board temperature estimate: two multiplies a tick, exact for any dt.
 template <class T>
 struct ThermalStep {
-  T a, b, a_rest;  // a_rest = (1 - a) T_a
+  T a, b, T_a;
   ThermalStep(const Params& p, double dt, const Effects& fx = Effects()) {
     const double tau = p.heat_capacity() / p.conductance();
     const double ad = decay_factor(dt / tau);
     a = from_double<T>(ad);
     b = from_double<T>((1.0 - ad) / (p.R * p.conductance()));
-    a_rest = from_double<T>((1.0 - ad) * (p.T_amb + fx.ambient_offset_K));
+    T_a = from_double<T>(p.T_amb + fx.ambient_offset_K);
   }
-  T operator()(T Tw, T V) const { return a * Tw + a_rest + b * V * V; }
+  T operator()(T Tw, T V) const { return T_a + a * (Tw - T_a) + b * V * V; }
 };
 
 // One tick of the wire's temperature under a held voltage, with the same power balance as
