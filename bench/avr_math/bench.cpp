@@ -9,7 +9,8 @@
 //   GPIOR2 <- at the end: the number of self-check mismatches, then the 4 bytes (LSB first) of
 //             sweep::fixed_results_hash()
 // The self-check runs the AVR assembly paths of fixed.hpp (mul16, mul32x16, mulhi32, the Q16.16
-// multiply, the saturating add and subtract) against their portable C versions on pseudo-random
+// multiply, the saturating add and subtract; the float <-> Q16.16 conversions by integer shifts)
+// against their portable C versions (the conversions: the float arithmetic) on pseudo-random
 // operands: host tests cannot execute the assembly.
 // The hash fingerprints every Fixed operation's results; sweep_host prints the host's, and the
 // CTest test requires them to be equal (bit-identical results on the host and the AVR).
@@ -133,6 +134,12 @@ uint8_t self_check() {
     if (sma::fixed_detail::mulhi32(ua, ub) != sma::fixed_detail::mulhi32_portable(ua, ub)) {
       ++mismatches;
     }
+    // The run-time conversions by integer shifts against the float arithmetic they replace
+    // (exact below 128, where x 2^16 + 1/2 needs no rounding in float).
+    const Fixed q = Fixed::from_raw(a);
+    if (static_cast<float>(q) != static_cast<float>(a) * (1.0f / 65536.0f)) ++mismatches;
+    const float f = static_cast<float>(b) * (0.0037f / 65536.0f);
+    if (sma::fixed_from_float(f).raw() != sma::fixed_detail::raw_from_double(f)) ++mismatches;
   }
   return static_cast<uint8_t>(mismatches > 255 ? 255 : mismatches);
 }

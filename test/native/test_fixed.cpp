@@ -18,6 +18,7 @@
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <string.h>
 
 #include <random>
 
@@ -159,6 +160,45 @@ TEST(FixedConversion, ToDoubleAndFloatAreExactAndRoundTrip) {
     ASSERT_EQ(sma::to_double(x), d(x));
     ASSERT_EQ(sma::from_double<Fixed>(d(x)).raw(), r);
     ASSERT_EQ(static_cast<float>(x), static_cast<float>(r) / 65536.0f);
+  }
+}
+
+// The AVR's run-time conversions (double is float there) by integer shifts: every float bit
+// pattern class (random, halfway cases, tiny, huge, inf, NaN, denormals, signed zeros) gives what
+// the exact double conversion gives, and back to float the same bits as float(raw) / 2^16.
+TEST(FixedConversion, FloatBitsConversionsAreExact) {
+  auto via_bits = [](float f) { return sma::fixed_from_float(f).raw(); };
+  auto expect = [](float f) { return Fixed(static_cast<double>(f)).raw(); };
+  const float special[] = {0.0f, -0.0f, 1e-30f, -1e-30f, 1e-45f, 0.5f * static_cast<float>(kLsb),
+                           -0.5f * static_cast<float>(kLsb), 0.49f * static_cast<float>(kLsb),
+                           static_cast<float>(kLsb), 1.5f * static_cast<float>(kLsb), 127.99998f,
+                           128.0f, 128.0000153f, -128.0000153f, 32767.998f, 32768.0f, -32768.0f,
+                           -32768.004f, 1e9f, -1e9f, HUGE_VALF, -HUGE_VALF, NAN, -NAN};
+  for (float f : special) EXPECT_EQ(via_bits(f), expect(f)) << f;
+  std::mt19937 gen(11u);
+  for (int i = 0; i < 400000; ++i) {
+    uint32_t bits = static_cast<uint32_t>(gen());
+    if (i % 2) bits = (bits & 0x807FFFFFu) | ((102u + bits % 45u) << 23);  // |x| ~ 2^-25 .. 2^19
+    float f;
+    memcpy(&f, &bits, 4);
+    ASSERT_EQ(via_bits(f), expect(f)) << std::hex << bits;
+  }
+  // Halfway cases: x = (k + 1/2) LSB exactly.
+  for (int32_t k = -70000; k < 70000; k += 7) {
+    const float f = (static_cast<float>(k) + 0.5f) * static_cast<float>(kLsb);
+    ASSERT_EQ(via_bits(f), expect(f)) << k;
+  }
+  Operands ops;
+  for (int i = 0; i < 100000; ++i) {
+    const int32_t r = ops.next();
+    const float f = static_cast<float>(r);
+    uint32_t fb;
+    memcpy(&fb, &f, 4);
+    const uint32_t got = sma::fixed_detail::float_bits_from_raw(r, fb);
+    const float want = static_cast<float>(r) / 65536.0f;
+    uint32_t wb;
+    memcpy(&wb, &want, 4);
+    ASSERT_EQ(got, wb) << r;
   }
 }
 

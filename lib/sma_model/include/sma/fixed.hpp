@@ -117,19 +117,22 @@ inline uint32_t mul32x16_portable(uint32_t a, uint16_t b) {
 // Byte grid of a 32x32 product: a_i*b_j lands at byte i+j. Used by mulhi32 and mul_raw, whose
 // asm statements name their operands a, b (inputs), p1 (byte 1), r (bytes 2..5), x (bytes 6..7)
 // and z (a zero byte). Byte 0 only ever receives the low byte of a0*b0, so it never carries and
-// is not kept.
+// is not kept. The nine products of the low three bytes come first; the seven that involve a
+// top byte are skipped when both top bytes are zero (the model's magnitudes are below 256, i.e.
+// 2^24 raw: the Q16.16 multiply then takes ~70 cycles instead of ~130).
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
 #define SMA_FIXED_AVR_PRODUCT_GRID                                                            \
-  /* The diagonal lands in disjoint bytes: plain moves. */                                    \
+  /* The diagonal of the low bytes lands in disjoint bytes: plain moves. */                  \
   "mul  %A[a], %A[b]  \n\t" /* a0b0 @0 */                                                     \
   "mov  %[p1], r1     \n\t"                                                                   \
   "mul  %B[a], %B[b]  \n\t" /* a1b1 @2 */                                                     \
   "movw %A[r], r0     \n\t"                                                                   \
   "mul  %C[a], %C[b]  \n\t" /* a2b2 @4 */                                                     \
   "movw %C[r], r0     \n\t"                                                                   \
-  "mul  %D[a], %D[b]  \n\t" /* a3b3 @6 */                                                     \
-  "movw %A[x], r0     \n\t"                                                                   \
-  /* Rest of al*bl: bytes 0-3 hold al*bl < 2^32, nothing carries out of byte 3. */           \
+  "clr  %A[x]         \n\t"                                                                   \
+  "clr  %B[x]         \n\t"                                                                   \
+  /* Low bytes: their product is < 2^48, nothing carries out of byte 5; bytes 0-3 alone     \
+     hold a01*b01 < 2^32, nothing carries out of byte 3 for the first two. */               \
   "mul  %A[a], %B[b]  \n\t" /* a0b1 @1 */                                                     \
   "add  %[p1], r0     \n\t"                                                                   \
   "adc  %A[r], r1     \n\t"                                                                   \
@@ -138,43 +141,32 @@ inline uint32_t mul32x16_portable(uint32_t a, uint16_t b) {
   "add  %[p1], r0     \n\t"                                                                   \
   "adc  %A[r], r1     \n\t"                                                                   \
   "adc  %B[r], %[z]   \n\t"                                                                   \
-  /* Rest of ah*bh: bytes 4-7 hold ah*bh < 2^32, nothing carries out of byte 7. */           \
-  "mul  %C[a], %D[b]  \n\t" /* a2b3 @5 */                                                     \
-  "add  %D[r], r0     \n\t"                                                                   \
-  "adc  %A[x], r1     \n\t"                                                                   \
-  "adc  %B[x], %[z]   \n\t"                                                                   \
-  "mul  %D[a], %C[b]  \n\t" /* a3b2 @5 */                                                     \
-  "add  %D[r], r0     \n\t"                                                                   \
-  "adc  %A[x], r1     \n\t"                                                                   \
-  "adc  %B[x], %[z]   \n\t"                                                                   \
-  /* al*bh and ah*bl: carries ripple up to byte 7. */                                         \
   "mul  %A[a], %C[b]  \n\t" /* a0b2 @2 */                                                     \
   "add  %A[r], r0     \n\t"                                                                   \
   "adc  %B[r], r1     \n\t"                                                                   \
   "adc  %C[r], %[z]   \n\t"                                                                   \
   "adc  %D[r], %[z]   \n\t"                                                                   \
-  "adc  %A[x], %[z]   \n\t"                                                                   \
-  "adc  %B[x], %[z]   \n\t"                                                                   \
   "mul  %C[a], %A[b]  \n\t" /* a2b0 @2 */                                                     \
   "add  %A[r], r0     \n\t"                                                                   \
   "adc  %B[r], r1     \n\t"                                                                   \
   "adc  %C[r], %[z]   \n\t"                                                                   \
   "adc  %D[r], %[z]   \n\t"                                                                   \
-  "adc  %A[x], %[z]   \n\t"                                                                   \
-  "adc  %B[x], %[z]   \n\t"                                                                   \
-  "mul  %A[a], %D[b]  \n\t" /* a0b3 @3 */                                                     \
-  "add  %B[r], r0     \n\t"                                                                   \
-  "adc  %C[r], r1     \n\t"                                                                   \
-  "adc  %D[r], %[z]   \n\t"                                                                   \
-  "adc  %A[x], %[z]   \n\t"                                                                   \
-  "adc  %B[x], %[z]   \n\t"                                                                   \
   "mul  %B[a], %C[b]  \n\t" /* a1b2 @3 */                                                     \
   "add  %B[r], r0     \n\t"                                                                   \
   "adc  %C[r], r1     \n\t"                                                                   \
   "adc  %D[r], %[z]   \n\t"                                                                   \
-  "adc  %A[x], %[z]   \n\t"                                                                   \
-  "adc  %B[x], %[z]   \n\t"                                                                   \
   "mul  %C[a], %B[b]  \n\t" /* a2b1 @3 */                                                     \
+  "add  %B[r], r0     \n\t"                                                                   \
+  "adc  %C[r], r1     \n\t"                                                                   \
+  "adc  %D[r], %[z]   \n\t"                                                                   \
+  /* The top bytes: nothing to add when both are zero. */                                   \
+  "mov  r0, %D[a]     \n\t"                                                                   \
+  "or   r0, %D[b]     \n\t"                                                                   \
+  "breq 8f            \n\t"                                                                   \
+  "mul  %D[a], %D[b]  \n\t" /* a3b3 @6: the whole product < 2^64, nothing carries out */     \
+  "add  %A[x], r0     \n\t"                                                                   \
+  "adc  %B[x], r1     \n\t"                                                                   \
+  "mul  %A[a], %D[b]  \n\t" /* a0b3 @3 */                                                     \
   "add  %B[r], r0     \n\t"                                                                   \
   "adc  %C[r], r1     \n\t"                                                                   \
   "adc  %D[r], %[z]   \n\t"                                                                   \
@@ -195,7 +187,16 @@ inline uint32_t mul32x16_portable(uint32_t a, uint16_t b) {
   "add  %C[r], r0     \n\t"                                                                   \
   "adc  %D[r], r1     \n\t"                                                                   \
   "adc  %A[x], %[z]   \n\t"                                                                   \
-  "adc  %B[x], %[z]   \n\t"
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  "mul  %C[a], %D[b]  \n\t" /* a2b3 @5 */                                                     \
+  "add  %D[r], r0     \n\t"                                                                   \
+  "adc  %A[x], r1     \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  "mul  %D[a], %C[b]  \n\t" /* a3b2 @5 */                                                     \
+  "add  %D[r], r0     \n\t"                                                                   \
+  "adc  %A[x], r1     \n\t"                                                                   \
+  "adc  %B[x], %[z]   \n\t"                                                                   \
+  "8:                 \n\t"
 #endif
 
 // floor(a * b / 2^16): a 32x16 product keeping the top 32 bits, exact.
@@ -300,6 +301,44 @@ constexpr int32_t raw_from_ulong(unsigned long v) {
   return v > 32767UL ? kRawMax : static_cast<int32_t>(v) * kRawOne;
 }
 
+// Q16.16 from a float's bits, exactly as raw_from_double(double(x)): round half away from zero,
+// saturate, NaN -> 0. Integer shifts only: on the AVR (where double is float) the soft-float
+// route (a multiply, an add, three compares and a conversion, ~400 cycles) runs several times a
+// tick (the measured position, the reference); this is ~60-150. Bytes are shifted whole first
+// (a byte move) and the rest bit by bit.
+inline int32_t raw_from_float_bits(uint32_t bits) {
+  const bool negative = (bits & kHalfQ32) != 0;
+  const uint8_t e = static_cast<uint8_t>(hi16(bits) >> 7);  // biased exponent
+  if (e == 0xFFu) return (bits & 0x7FFFFFu) != 0 ? 0 : saturated(negative);  // NaN, inf
+  // |x| = m 2^(e - 150), so |x| 2^16 = m 2^(e - 134); e = 0 (zero, denormals) rounds to 0.
+  if (e < 110u) return 0;  // |x| 2^16 < 2^-1 (m < 2^24, e - 134 <= -25)
+  uint32_t m = (bits & 0x7FFFFFu) | 0x800000u;
+  if (e >= 142u) return saturated(negative);  // |x| 2^16 >= 2^31
+  uint8_t down = static_cast<uint8_t>(134u - e);  // e >= 134 instead shifts up by e - 134 <= 7
+  if (e >= 134u) {
+    for (uint8_t up = static_cast<uint8_t>(e - 134u); up != 0; --up) m <<= 1;
+  } else {
+    --down;  // keep the rounding bit: m 2^-down, then round on its lowest bit
+    if (down >= 16u) {
+      m = hi16(m);
+      down = static_cast<uint8_t>(down - 16u);
+    }
+    if (down >= 8u) {
+      m >>= 8;
+      down = static_cast<uint8_t>(down - 8u);
+    }
+    for (; down != 0; --down) m >>= 1;
+    m = (m >> 1) + (m & 1u);  // round half away from zero on the magnitude
+  }
+  return negative ? as_signed(UINT32_C(0) - m) : as_signed(m);
+}
+
+// raw / 2^16 as a float, exactly as static_cast<float>(raw) * 2^-16: the power-of-two scaling
+// is a change of the exponent (|raw| >= 1 keeps it far from underflow), not a soft-float multiply.
+inline uint32_t float_bits_from_raw(int32_t raw, uint32_t bits_of_float_raw) {
+  return raw == 0 ? 0u : bits_of_float_raw - (UINT32_C(16) << 23);
+}
+
 // ---- saturating arithmetic on raw values -----------------------------------------------------
 // Portable versions; on the AVR they are the reference the benchmark checks the assembly against.
 inline int32_t add_raw_portable(int32_t a, int32_t b) {
@@ -379,7 +418,8 @@ inline int32_t mul_raw_portable(int32_t a, int32_t b) {
 
 // The same algorithm on the AVR, where it matters (see SMA_FIXED_AVR_PRODUCT_GRID): magnitudes,
 // the byte grid of the product, rounding and saturation in one block, with the sign kept in the
-// T flag. ~195 cycles including the call (float: ~130; the int64 version: ~250).
+// T flag. ~130 cycles including the call, ~70 when both magnitudes are below 256 (float:
+// ~130; the int64 version: ~250).
 inline int32_t mul_raw(int32_t a, int32_t b) {
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
   uint32_t ua = static_cast<uint32_t>(a);  // made |a| in place
@@ -529,12 +569,26 @@ class Fixed {
   static constexpr Fixed from_raw(int32_t r) { return Fixed(RawTag(), r); }
   constexpr int32_t raw() const { return raw_; }
 
+#if defined(__AVR__)
+  // double is float on the AVR: one integer conversion and an exponent change.
+  explicit operator float() const {
+    const float f = static_cast<float>(raw_);
+    uint32_t bits;
+    __builtin_memcpy(&bits, &f, 4);
+    bits = fixed_detail::float_bits_from_raw(raw_, bits);
+    float r;
+    __builtin_memcpy(&r, &bits, 4);
+    return r;
+  }
+  explicit operator double() const { return static_cast<double>(static_cast<float>(*this)); }
+#else
   constexpr explicit operator double() const {
     return static_cast<double>(raw_) * (1.0 / 65536.0);
   }
   constexpr explicit operator float() const {
     return static_cast<float>(raw_) * (1.0f / 65536.0f);
   }
+#endif
 
   static constexpr Fixed max() { return from_raw(fixed_detail::kRawMax); }
   static constexpr Fixed lowest() { return from_raw(fixed_detail::kRawMin); }
@@ -581,9 +635,21 @@ constexpr bool operator<=(Fixed a, Fixed b) { return a.raw() <= b.raw(); }
 constexpr bool operator>(Fixed a, Fixed b) { return a.raw() > b.raw(); }
 constexpr bool operator>=(Fixed a, Fixed b) { return a.raw() >= b.raw(); }
 
+// A float at run time (the measured position, a reference, the constructors' parameters):
+// exactly Fixed(double(x)), by integer shifts (raw_from_float_bits).
+inline Fixed fixed_from_float(float x) {
+  uint32_t bits;
+  __builtin_memcpy(&bits, &x, 4);
+  return Fixed::from_raw(fixed_detail::raw_from_float_bits(bits));
+}
+
 template <>
 inline Fixed from_double<Fixed>(double x) {
+#if defined(__AVR__)
+  return fixed_from_float(x);  // double is float on the AVR
+#else
   return Fixed(x);
+#endif
 }
 
 // Every Fixed is a number; overflow saturates instead of producing inf/NaN.
@@ -837,7 +903,17 @@ inline Fixed sqrt(Fixed x) {
     n <<= 16;
     pairs_left = 0;
   } else {
-    while (pairs_left != 0 && n < (UINT32_C(1) << 30)) {
+    // Up by bit pairs until n >= 2^30 (at most 7 pairs from n >= 2^16): 4, 2, then 1 pair at a
+    // time, not a loop of 2-bit shifts (each a loop of its own on the AVR).
+    if (n < (UINT32_C(1) << 24)) {
+      n <<= 8;
+      pairs_left = 4;
+    }
+    if (n < (UINT32_C(1) << 28)) {
+      n <<= 4;
+      pairs_left = static_cast<uint8_t>(pairs_left - 2);
+    }
+    if (n < (UINT32_C(1) << 30)) {
       n <<= 2;
       --pairs_left;
     }

@@ -46,8 +46,11 @@ class Pid {
     integral_ = integral_ + (kp_ - kp_new) * e_prev_;
     kp_ = kp_new;
     ki_dt_ = from_double<T>(gains.ki * dt);
-    kd_dt_ = from_double<T>(gains.kd / dt);
-    d_alpha_ = from_double<T>(dt / (gains.d_filter_s + dt));
+    // The filtered derivative d += alpha (d_raw - d) with d_raw = -kd/dt dMeas, folded into
+    // d = keep d - gain dMeas: one subtraction a tick less.
+    const double alpha = dt / (gains.d_filter_s + dt);
+    d_keep_ = from_double<T>(1.0 - alpha);
+    d_gain_ = from_double<T>(alpha * gains.kd / dt);
     i_zone_ = from_double<T>(gains.i_zone_mm > 0.0 ? gains.i_zone_mm : 1e4);
   }
 
@@ -62,26 +65,25 @@ class Pid {
   // One tick. error = setpoint - measurement; output in [lo, hi].
   T step(T error, T measurement, T lo, T hi) {
     if (!is_finite(error) || !is_finite(measurement)) return clamp(T(0), lo, hi);
-    const T p = kp_ * error;
     e_prev_ = error;
-    // Derivative on measurement, low-pass filtered.
-    const T d_raw = -(measurement - meas_prev_) * kd_dt_;
+    // Derivative on measurement, low-pass filtered; P and D summed once for both uses below.
+    d_ = d_keep_ * d_ - d_gain_ * (measurement - meas_prev_);
     meas_prev_ = measurement;
-    d_ = d_ + d_alpha_ * (d_raw - d_);
-    const T unsat = p + integral_ + d_;
+    const T pd = kp_ * error + d_;
+    const T unsat = pd + integral_;
     // Conditional integration: no integration that pushes further into saturation.
     const bool pushing_up = unsat >= hi && error > T(0);
     const bool pushing_down = unsat <= lo && error < T(0);
     if (!pushing_up && !pushing_down && abs(error) < i_zone_)
       integral_ = integral_ + ki_dt_ * error;
     integral_ = clamp(integral_, lo, hi);
-    return clamp(p + integral_ + d_, lo, hi);
+    return clamp(pd + integral_, lo, hi);
   }
 
   T integral() const { return integral_; }
 
  private:
-  T kp_ = T(0), ki_dt_ = T(0), kd_dt_ = T(0), d_alpha_ = T(1), i_zone_ = T(1);
+  T kp_ = T(0), ki_dt_ = T(0), d_keep_ = T(0), d_gain_ = T(0), i_zone_ = T(1);
   T integral_ = T(0), meas_prev_ = T(0), d_ = T(0), e_prev_ = T(0);
 };
 

@@ -24,7 +24,17 @@ inline float acos(float x) { return static_cast<float>(::acos(x)); }
 inline float sqrt(float x) { return static_cast<float>(::sqrt(x)); }
 inline float sin(float x) { return static_cast<float>(::sin(x)); }
 inline float exp(float x) { return static_cast<float>(::exp(x)); }
-inline bool is_finite(float x) { return isfinite(x) != 0; }
+// On the AVR the exponent test inline (avr-libc's isfinite is a call, ~50 cycles with its
+// register moves, and the tick asks ~8 times).
+inline bool is_finite(float x) {
+#if defined(__AVR__)
+  uint32_t b;
+  __builtin_memcpy(&b, &x, 4);
+  return (static_cast<uint16_t>(b >> 16) & 0x7F80u) != 0x7F80u;
+#else
+  return isfinite(x) != 0;
+#endif
+}
 #if !defined(__AVR__)
 // Host: double is a distinct 64-bit type.
 inline double cos(double x) { return ::cos(x); }
@@ -102,22 +112,20 @@ inline float cos_ramp(float x) {
   return upper ? 1.0f - r : r;
 }
 
-// float: acos(x) = sqrt(1 - x) p(x) on [0, 1] with p a degree-5 polynomial (least-squares
-// minimax fit of acos(x) / sqrt(1 - x), the form of Abramowitz & Stegun 4.4.45): |error| <=
-// 1.2e-6 rad, 4e-7 of the normalised result (test_hysteresis checks it against double), i.e.
-// 7 uK on a 18 K transformation band, below the float rounding of a temperature near 60 degC
-// (4 uK): avr-libc's acos (range reduction, its own sqrt and series) costs ~1300 cycles more.
-// With x = 1 - 2y on y <= 1/2, sqrt(1 - x) = sqrt(2) sqrt(y); the odd symmetry
-// cos_ramp_inv(1 - y) = 1 - cos_ramp_inv(y) covers the other half. sqrt(2)/pi is folded in.
+// float: cos_ramp_inv(h) = acos(1 - 2h) / pi = sqrt(h) q(h) on h <= 1/2, q a degree-5 polynomial
+// (a minimax fit of acos(1 - 2h) / (pi sqrt(h)), weighted for the absolute error of the result):
+// |error| <= 3e-7 against double (test_hysteresis), i.e. 5 uK on a 18 K transformation band,
+// about the float rounding of a temperature near 60 degC (4 uK). The odd symmetry
+// cos_ramp_inv(1 - y) = 1 - cos_ramp_inv(y) covers the other half. Polynomial in h itself: no
+// x = 1 - 2h to form (the A&S 4.4.45 form in x costs a multiply and a subtraction more);
+// avr-libc's acos (range reduction, its own sqrt and series) costs ~1300 cycles more.
 inline float cos_ramp_inv(float y) {
   y = clamp(y, 0.0f, 1.0f);
   const bool upper = y > 0.5f;
   const float h = upper ? 1.0f - y : y;  // 0..1/2
-  const float x = 1.0f - 2.0f * h;       // 0..1
-  constexpr float k = static_cast<float>(1.4142135623730951 / kPi);
-  const float p = ((((-0.0043371088f * k * x + 0.0193481215f * k) * x - 0.0449571241f * k) * x +
-                    0.0878756158f * k) * x - 0.2145122686f * k) * x + 1.5707952064f * k;
-  const float r = sqrt(h) * p;
+  const float q = ((((0.070745249150f * h - 0.028347137647f) * h + 0.045227005299f) * h +
+                    0.045012260736f) * h + 0.10628955834f) * h + 0.63661618129f;
+  const float r = sqrt(h) * q;
   return upper ? 1.0f - r : r;
 }
 
