@@ -85,7 +85,9 @@ def update_ratchet(rows, ratchet):
         f.write("\n")
 
 # Every feature of an image at once: telemetry, a reference, console lines, the model store
-# (where the image has it), the training run (where it has it), then a sensor fault while heating.
+# (where the image has it), the training run (where it has it), the sine's first peak (a heating ->
+# cooling reversal builds a new minor loop: the model's most expensive tick, t = 30 s), then a
+# sensor fault while the wire is hot.
 SCRIPT = """0.10 tele on
 0.20 status
 0.30 sine
@@ -116,8 +118,8 @@ def cycles(vrig, elf):
         with open(script, "w") as f:
             f.write(SCRIPT)
         cj = os.path.join(d, "cycles.json")
-        subprocess.run([vrig, elf, "--script", script, "--duration", "7", "--quiet", "--cycles-json", cj,
-                        "--sensor-fault", "6.0"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+        subprocess.run([vrig, elf, "--script", script, "--duration", "32", "--quiet", "--cycles-json", cj,
+                        "--sensor-fault", "31.0"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
         with open(cj) as f:
             return json.load(f)
 
