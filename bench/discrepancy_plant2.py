@@ -77,6 +77,7 @@ def run_one(case, logs, outs, noise, extra):
     e0, e1 = excess(rep["rms_mm_nominal"], n), excess(rep["rms_mm_final"], n)
     # the effects the engine tried on this log (its vocabulary, see main)
     res["tried"] = sorted({c["name"] for rnd in rep.get("candidates", []) for c in rnd} | set(named))
+    res["reheat"] = rep.get("reheat", {}).get("reading", "")
     res.update({"named": named,
                 "named_params": {e["name"]: e.get("params", {}) for e in rep.get("effects", [])},
                 "right": right, "rms_mm_nominal": rep["rms_mm_nominal"], "rms_mm_final": rep["rms_mm_final"],
@@ -195,6 +196,11 @@ def main():
               "not in its vocabulary: %s" % (right_known, len(known), 100.0 * right_known / max(len(known), 1),
                                              ", ".join(unknown)))
     print("Clean logs with nothing named: %d of %d (target: all)" % (clean_ok, len(clean)))
+    readings = {}
+    for r in results:
+        readings[r.get("reheat") or "?"] = readings.get(r.get("reheat") or "?", 0) + 1
+    print("Re-heat reading the engine chose (report.json reheat): " +
+          ", ".join("%s %d" % kv for kv in sorted(readings.items())))
     print("Median excess-gap shrink: %.0f %% (target >= %.0f %%); wall time %.0f s" % (
         100 * median, 100 * TARGET_SHRINK, time.time() - t_start))
     summary = {"plant": "plant_b", "reading": a.reading, "quick": a.quick, "logs": len(results),
@@ -204,7 +210,7 @@ def main():
                "median_excess_gap_shrink": median, "min_excess_gap_shrink": min(shrinks) if shrinks else None,
                "targets": {"named_right_fraction": TARGET_RIGHT, "median_excess_gap_shrink": TARGET_SHRINK},
                "lookalikes": {k: sorted(v) for k, v in LOOKALIKES.items()},
-               "per_effect": per_effect, "per_excitation": per_ex,
+               "per_effect": per_effect, "per_excitation": per_ex, "reheat_chosen": readings,
                "wall_s": round(time.time() - t_start, 1), "results": results}
     # the own plant's benchmark (bench_discrepancy, run before this one by scripts/bench)
     own_path = os.path.join(res_dir, "discrepancy.json")

@@ -29,13 +29,16 @@ using sma_tools::json::quote;
 const char* kUsage =
     "usage: sma_discrepancy LOG.csv [LOG2.csv ...] [--params PARAMS.json] --out DIR [--max-effects N]\n"
     "                       [--min-gain F] [--block-s S] [--refit-base all|h,T_AS,...]\n"
-    "                       [--validate V.csv ...] [--no-plots]\n"
+    "                       [--validate V.csv ...] [--reheat return_point|new_loop] [--no-plots]\n"
     "  several LOGs   one wire, a sensor zero per run (one sample rate and column set, else refused)\n"
     "  --validate     runs predicted by the corrected model (zero fitted alone): table in report\n"
     "  --refit-base   base parameters refitted jointly with every candidate effect (default: none,\n"
     "                 the base model stays as given); use it when the base was fitted on a log where\n"
     "                 it could absorb the missing effect; `all`: every parameter tools/sma fit\n"
-    "                 identifies (h, T_AS, T_AF, T_MF, q, e, T_MSs, T_MSf, g, j and T_ii of each loop)\n";
+    "                 identifies (h, T_AS, T_AF, T_MF, q, e, T_MSs, T_MSf, g, j and T_ii of each loop)\n"
+    "  --reheat       keep this reading of a re-heat short of transformation (default: the one of\n"
+    "                 --params, replaced by the other when the log clearly prefers it: report.json\n"
+    "                 \"reheat\" says which and why)\n";
 
 std::string regimes_json(const std::vector<sma_host::RegimeRms>& r) {
   std::string s = "{";
@@ -77,6 +80,7 @@ int run(int argc, char** argv) {
   std::vector<std::string> log_paths, val_paths;
   sma_host::Options opt;
   bool plots = true;
+  std::string reheat_arg;   // --reheat: the reading fixed, not chosen from the log
   bool refit_all = false;  // --refit-base all: resolved once the model's loop count is known
   while (!args.empty()) {
     const std::string a = args.next();
@@ -86,6 +90,12 @@ int run(int argc, char** argv) {
     else if (a == "--min-gain") opt.min_gain = args.number(a);
     else if (a == "--block-s") opt.block_s = args.number(a);
     else if (a == "--no-plots") plots = false;
+    else if (a == "--reheat") {
+      reheat_arg = args.value(a);
+      if (reheat_arg != "return_point" && reheat_arg != "new_loop")
+        throw Error("--reheat must be return_point or new_loop, not '" + reheat_arg + "'");
+      opt.choose_reading = false;
+    }
     else if (a == "--validate") {
       val_paths.push_back(args.value(a));
       while (!args.empty() && !args.peek().empty() && args.peek()[0] != '-') val_paths.push_back(args.next());
@@ -129,6 +139,8 @@ int run(int argc, char** argv) {
   const sma_host::RigLog file = files.size() == 1 ? files[0] : sma_host::concatenate(ptrs);
   sma_tools::Model model;
   if (!params_path.empty()) model = sma_tools::read_model(params_path);
+  if (!reheat_arg.empty())
+    model.p.reheat = reheat_arg == "new_loop" ? sma::Reheat::new_loop : sma::Reheat::return_point;
   if (refit_all)
     for (const sma_host::BaseSpec* b : sma_host::all_base(model.p))
       if (std::find(opt.refit_base.begin(), opt.refit_base.end(), b) == opt.refit_base.end()) opt.refit_base.push_back(b);
@@ -168,8 +180,10 @@ int run(int argc, char** argv) {
   sma_host::RoundsProgress rounds("discrepancy: candidate effects fitted",
                                  double(sma_host::vocabulary().size() - sma_host::present_effects(model.fx).size()));
   const sma_host::Diagnosis d =
-      sma_host::diagnose(model.p, log, opt, [&rounds](const char*) { rounds.tick(); }, model.fx);
+      sma_host::diagnose_reading(model.p, log, opt, [&rounds](const char*) { rounds.tick(); }, model.fx);
   rounds.finish();
+  model.p.reheat = d.params.reheat;  // the nominal model of the report runs the chosen reading
+  std::cerr << "discrepancy: re-heat reading: " << d.reading_why << "\n";
 
   // What a user must know before trusting the named effects.
   std::vector<std::string> warnings;
@@ -311,7 +325,10 @@ int run(int argc, char** argv) {
       << ", \"max_mm_heating\": " << number(r.e.heating.max) << ", \"rms_mm_cooling\": " << number(r.e.cooling.rms)
       << ", \"max_mm_cooling\": " << number(r.e.cooling.max) << "}";
   }
-  j << "],\n  \"warnings\": [";
+  j << "],\n  \"reheat\": {\"reading\": " << quote(sma_host::reading_name(d.params.reheat))
+    << ", \"rms_mm_heldout\": {\"return_point\": " << number(d.reading_rms_test[0])
+    << ", \"new_loop\": " << number(d.reading_rms_test[1]) << "}, \"why\": " << quote(d.reading_why) << "}";
+  j << ",\n  \"warnings\": [";
   for (size_t i = 0; i < warnings.size(); ++i) j << (i ? ", " : "") << quote(warnings[i]);
   j << "]\n}\n";
   write_file(out + "/report.json", j.str());
@@ -420,6 +437,7 @@ int run(int argc, char** argv) {
     md << "\n";
   }
   for (const std::string& w : warnings) md << "\n**Warning:** " << w << ".\n";
+  md << "\n**Re-heat reading** (loop memory, a re-heat short of transformation): " << d.reading_why << ".\n";
   md << "\n## Runs (corrected model)\n\nTraining runs with their own sensor zero; validation runs predicted with "
         "their zero fitted alone. Heating / cooling: where the model's temperature rises / falls.\n\n"
         "| log | role | offset, mm | RMS, mm | max, mm | RMS heating | max heating | RMS cooling | max cooling |\n"

@@ -70,6 +70,12 @@ int main(int argc, char** argv) {
   sma_tools::Model m;
   try {
     m = sma_tools::read_model(argv[1]);
+    // The firmware's loop memory is the return-point reading only (params.hpp: compiled out on
+    // AVR): a model identified with the other reading would run differently on the board.
+    if (m.p.reheat != sma::Reheat::return_point)
+      throw sma_tools::Error(std::string(argv[1]) + ": key 'reheat' is \"" +
+                             sma_tools::reheat_name(m.p.reheat) +
+                             "\", but the board runs \"return_point\" only");
   } catch (const std::exception& e) {
     fprintf(stderr, "sma_params: %s\n", e.what());
     return 1;

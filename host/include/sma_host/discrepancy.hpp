@@ -188,6 +188,9 @@ struct Options {
   double block_worse = 0.25;
   bool check_credibility = true;
   bool pair_search = true;  // two candidates fitted jointly when no single one is credible
+  // Decide the re-heat reading of the loop memory (sma::Reheat) from the log before naming
+  // effects (diagnose_reading()); false: the given params' reading is kept.
+  bool choose_reading = true;
   // Base parameters refitted jointly with every candidate (names of refittable_base()); empty:
   // the base model stays as given and only the effects are fitted.
   std::vector<const BaseSpec*> refit_base;
@@ -197,11 +200,22 @@ struct Split {
   std::vector<size_t> train, test;
 };
 
+// Training and held-out blocks alternate. Their lengths vary between 0.7 and 1.3 block_s
+// (a golden-ratio sequence, mean block_s): with equal blocks a periodic drive whose period is
+// twice the block (a 20 s sine, 10 s blocks) would show the held-out half one phase only.
 inline Split split_blocks(const RigLog& log, const Options& o) {
   Split s;
   std::vector<size_t> train, test;
-  for (size_t k = 0; k < log.size(); ++k)
-    ((static_cast<long>((log.t[k] - log.t[0]) / o.block_s) % 2) ? test : train).push_back(k);
+  long block = 0;
+  double block_end = log.t.empty() ? 0.0 : log.t[0] + 0.7 * o.block_s;
+  for (size_t k = 0; k < log.size(); ++k) {
+    while (log.t[k] >= block_end) {
+      ++block;
+      const double golden = static_cast<double>(block) * 0.6180339887498949;
+      block_end += o.block_s * (0.7 + 0.6 * (golden - ::floor(golden)));
+    }
+    ((block % 2) ? test : train).push_back(k);
+  }
   const size_t stride = std::max<size_t>(1, train.size() / static_cast<size_t>(o.max_residuals));
   for (size_t i = 0; i < train.size(); i += stride) s.train.push_back(train[i]);
   s.test = test;
@@ -251,126 +265,94 @@ inline bool frozen(const EffectSpec& e, int i, const std::vector<const BaseSpec*
   return false;
 }
 
-namespace detail {
-
-// Residuals on the training indices for the parameter vector x (scaled), as Eigen's LM wants.
-struct Residuals {
-  typedef double Scalar;
-  enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
-  typedef Eigen::VectorXd InputType;
-  typedef Eigen::VectorXd ValueType;
-  typedef Eigen::MatrixXd JacobianType;
-
-  const sma::Params* p;
-  const RigLog* log;
-  const std::vector<size_t>* idx;
-  std::vector<FittedEffect> slots;  // value[] overwritten from x
-  int n_in;
-  const std::vector<const BaseSpec*>* base;  // refitted base parameters, after the effects in x
-  bool hold = false;                         // every effect parameter held (only the base fitted)
-
-  bool fixed(const EffectSpec& e, int i) const { return hold || frozen(e, i, *base); }
-
-  int inputs() const { return n_in; }
-  int values() const { return static_cast<int>(idx->size()); }
-
-  std::vector<FittedEffect> values(const Eigen::VectorXd& x) const {
-    std::vector<FittedEffect> s = slots;
-    int j = 0;
-    for (FittedEffect& f : s)
-      for (int i = 0; i < f.spec->n; ++i)
-        if (!fixed(*f.spec, i)) {
-          f.value[i] = sma::clamp(x[j] * f.spec->scale[i], f.spec->lo[i], f.spec->hi[i]);
-          ++j;
-        }
-    return s;
-  }
-  sma::Effects effects(const Eigen::VectorXd& x) const { return effects_of(values(x)); }
-  sma::Params params(const Eigen::VectorXd& x) const {
-    sma::Params q = *p;
-    long j = n_in - static_cast<long>(base->size());
-    for (const BaseSpec* b : *base) b->ref(q) = b->get(*p) + x[j++] * b->scale;
-    return q;
-  }
-  int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& r) const {
-    const sma::Params q = params(x);
-    if (q.check() != nullptr) {  // a non-physical trial: a large, smooth penalty
-      r.setConstant(1.0);
-      return 0;
-    }
-    const std::vector<double> pred = predict(q, effects(x), *log);
-    for (size_t i = 0; i < idx->size(); ++i) r[static_cast<long>(i)] = log->d[(*idx)[i]] - pred[(*idx)[i]];
-    return 0;
-  }
-};
-
-}  // namespace detail
-
 // Fit the parameters of `effects` (their values are starting points) on the training blocks.
 // hold_effects: the effects stay at their given values and only the base is fitted.
+// The residual is the engine's (identify.hpp FitResidual / FitFunctor, the one `fit` uses), on
+// the training rows, with the vocabulary's scales and bounds for the effects and the refittable
+// base's scales for the base; the bands are not tied (every parameter not fitted stays put).
 inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> effects, const RigLog& log,
                               const Split& split, const std::vector<const BaseSpec*>& base = {},
                               bool hold_effects = false) {
-  detail::Residuals f{&p, &log, &split.train, effects, 0, &base, hold_effects};
-  for (const FittedEffect& e : effects)
-    for (int i = 0; i < e.spec->n; ++i) f.n_in += f.fixed(*e.spec, i) ? 0 : 1;
-  f.n_in += static_cast<int>(base.size());
-  Eigen::VectorXd x(f.n_in);
-  int j = 0;
+  FitResidual pb;
+  pb.logs = {&log};
+  pb.start = Model{p, effects_of(effects)};
+  pb.only = split.train;
+  pb.tie_bands = false;
+  pb.penalty = 1.0;  // mm: a non-physical trial
+  const std::vector<ParamSpec> named = fittable_params(pb.start);
+  auto spec_of = [&named](const char* name, double scale, double lo, double hi) {
+    for (const ParamSpec& s : named)
+      if (s.name == name) {
+        ParamSpec out = s;
+        out.scale = scale;
+        out.log = false;
+        out.lo = lo;
+        out.hi = hi;
+        return out;
+      }
+    throw Error(std::string("discrepancy: no fittable parameter named '") + name + "'");
+  };
   for (const FittedEffect& e : effects)
     for (int i = 0; i < e.spec->n; ++i)
-      if (!f.fixed(*e.spec, i)) x[j++] = e.value[i] / e.spec->scale[i];
-  for (size_t b = 0; b < base.size(); ++b) x[j++] = 0.0;  // offsets from the given base model
-  if (f.n_in > 0) {
-    Eigen::NumericalDiff<detail::Residuals> nd(f, 1e-4);
-    Eigen::LevenbergMarquardt<Eigen::NumericalDiff<detail::Residuals>> lm(nd);
-    lm.parameters.maxfev = 60 * (f.n_in + 1);
+      if (!hold_effects && !frozen(*e.spec, i, base)) {
+        pb.specs.push_back(spec_of(e.spec->param[i], e.spec->scale[i], e.spec->lo[i], e.spec->hi[i]));
+        pb.x0.push_back(sma::clamp(e.value[i], e.spec->lo[i], e.spec->hi[i]));
+      }
+  const size_t n_effect_params = pb.specs.size();
+  for (const BaseSpec* b : base) {
+    pb.specs.push_back(spec_of(b->name, b->scale, -INFINITY, INFINITY));
+    pb.x0.push_back(b->get(p));
+  }
+  const Eigen::Index n = static_cast<Eigen::Index>(pb.specs.size());
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
+  if (n > 0) {
+    FitFunctor fun{&pb};
+    Eigen::LevenbergMarquardt<FitFunctor> lm(fun);
+    lm.parameters.maxfev = 60 * (n + 1);
     lm.parameters.xtol = 1e-6;
     lm.minimize(x);
   }
+  const Model fitted = pb.model_at(x);
   FitOutcome out;
-  out.params = f.params(x);
-  if (out.params.check() != nullptr) out.params = p;
-  effects = f.values(x);
+  out.params = fitted.p.check() == nullptr ? fitted.p : p;
+  for (FittedEffect& e : effects)
+    for (int i = 0; i < e.spec->n; ++i) e.value[i] = fitted.fx.*(e.spec->field[i]);
   const std::vector<double> pred = predict(out.params, effects_of(effects), log);
   out.rms_train = rms_on(pred, log, split.train);
   out.rms_test = rms_on(pred, log, split.test);
   std::vector<size_t> all(log.size());
   for (size_t k = 0; k < all.size(); ++k) all[k] = k;
   out.rms_all = rms_on(pred, log, all);
-  // Confidence: from a finite-difference Jacobian at the optimum.
-  if (f.n_in > 0) {
-    Eigen::MatrixXd J(split.train.size(), f.n_in);
-    Eigen::VectorXd r0(split.train.size()), r1(split.train.size());
-    f(x, r0);
-    for (int c = 0; c < f.n_in; ++c) {
+  // Confidence: from a finite-difference Jacobian at the optimum, in the optimiser's scaled
+  // units (one unit = one scale of the parameter).
+  if (n > 0) {
+    Eigen::VectorXd r0, r1;
+    pb.residual_at(x, r0);
+    Eigen::MatrixXd J(r0.size(), n);
+    for (Eigen::Index c = 0; c < n; ++c) {
       Eigen::VectorXd xh = x;
       const double h = 1e-3 * std::max(1.0, fabs(x[c]));
       xh[c] += h;
-      f(xh, r1);
+      pb.residual_at(xh, r1);
       J.col(c) = (r1 - r0) / h;
     }
-    // The engine's covariance (identify.hpp), in the optimiser's scaled units. A parameter
-    // pinned at its bound (a zero column) gets no width here; the report warns about bounds.
+    // The engine's covariance (identify.hpp). A parameter pinned at its bound (a zero column)
+    // gets no width here; the report warns about bounds.
     const Uncertainty u = uncertainty(J, r0);
-    auto half = [&](int c, double scale) { return 1.96 * sqrt(fmax(u.cov(c, c), 0.0)) * scale; };
-    j = 0;
+    auto half = [&](Eigen::Index c) {
+      return 1.96 * sqrt(fmax(u.cov(c, c), 0.0)) * pb.specs[static_cast<size_t>(c)].scale;
+    };
+    Eigen::Index j = 0;
     for (FittedEffect& e : effects)
-      for (int i = 0; i < e.spec->n; ++i) {
-        if (f.fixed(*e.spec, i)) {
-          e.ci95[i] = 0.0;  // held, not fitted
-          continue;
-        }
-        e.ci95[i] = half(j, e.spec->scale[i]);
-        ++j;
-      }
-    for (size_t b = 0; b < base.size(); ++b, ++j) out.base_ci95.push_back(half(j, base[b]->scale));
-    for (int a = 0; a < f.n_in; ++a)
-      for (int b = a + 1; b < f.n_in; ++b) {
-        const double c = u.corr(a, b);
+      for (int i = 0; i < e.spec->n; ++i)
+        e.ci95[i] = hold_effects || frozen(*e.spec, i, base) ? 0.0 : half(j++);  // held: not fitted
+    for (size_t b = n_effect_params; b < pb.specs.size(); ++b) out.base_ci95.push_back(half(j++));
+    for (Eigen::Index a2 = 0; a2 < n; ++a2)
+      for (Eigen::Index b2 = a2 + 1; b2 < n; ++b2) {
+        const double c = u.corr(a2, b2);
         if (isfinite(c) && fabs(c) > out.max_corr) {
           out.max_corr = fabs(c);
-          out.corr_pair = std::to_string(a) + "-" + std::to_string(b);
+          out.corr_pair = std::to_string(a2) + "-" + std::to_string(b2);
         }
       }
   }
@@ -419,6 +401,10 @@ struct Diagnosis {
   double rms_test_final = 0;              // held-out RMS of the final model
   std::vector<std::string> at_bound;      // candidates not added: they ended at a bound
   std::vector<std::string> not_credible;  // candidates not added: stand-ins (credibility()), with why
+  // The re-heat reading (params.reheat): the held-out RMS of the final model with each reading
+  // (NaN: not run on this log) and why the one in params was kept.
+  double reading_rms_test[2] = {NAN, NAN};  // [return_point, new_loop]
+  std::string reading_why;
 };
 
 // BIC of a held-out residual with k extra parameters; n_eff discounts the autocorrelation of
@@ -507,15 +493,12 @@ struct Credibility {
   std::string why;                          // empty when credible
 };
 
-// The held-out blocks of a split (indices grouped by block).
-inline std::vector<std::vector<size_t>> heldout_blocks(const RigLog& log, const Split& s, double block_s) {
+// The held-out blocks of a split (runs of consecutive rows).
+inline std::vector<std::vector<size_t>> heldout_blocks(const Split& s) {
   std::vector<std::vector<size_t>> out;
-  long last = -1;
-  for (size_t k : s.test) {
-    const long b = static_cast<long>((log.t[k] - log.t[0]) / block_s);
-    if (b != last) out.emplace_back();
-    out.back().push_back(k);
-    last = b;
+  for (size_t i = 0; i < s.test.size(); ++i) {
+    if (i == 0 || s.test[i] != s.test[i - 1] + 1) out.emplace_back();
+    out.back().push_back(s.test[i]);
   }
   return out;
 }
@@ -559,7 +542,7 @@ inline Credibility credibility(const FitOutcome& current, const FitOutcome& win,
   // 2. No held-out block made clearly worse.
   const std::vector<double> p0 = predict(current.params, effects_of(current.effects), log);
   const std::vector<double> p1 = predict(win.params, effects_of(win.effects), log);
-  for (const std::vector<size_t>& blk : heldout_blocks(log, split, o.block_s)) {
+  for (const std::vector<size_t>& blk : heldout_blocks(split)) {
     const double r0 = rms_on(p0, log, blk), r1 = rms_on(p1, log, blk);
     if (r1 - r0 > c.worst_block) {
       c.worst_block = r1 - r0;
@@ -790,6 +773,62 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
 
 inline Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o = Options()) {
   return diagnose(p, log, o, [](const char*) {});
+}
+
+// ---- the re-heat reading -------------------------------------------------------------------
+
+inline const char* reading_name(sma::Reheat r) {
+  return r == sma::Reheat::new_loop ? "new_loop" : "return_point";
+}
+
+// The reading of a re-heat that stops short of transformation is a choice of the model's
+// structure (hysteresis.hpp), not an effect: it is decided first, with the effects fitted under
+// each reading. When the two readings predict the log alike (no such re-heat, or one that
+// changes nothing the sensor sees) the given reading is kept without a second run. Otherwise
+// the whole diagnosis runs with each, and the other reading replaces the given one only when
+// its final held-out gap is clearly smaller: its excess over the noise below 0.7 of the given
+// reading's and the two RMS apart by more than a quarter of the noise.
+template <class Progress>
+Diagnosis diagnose_reading(const sma::Params& p, const RigLog& log, const Options& o, Progress progress,
+                           const sma::Effects& start = sma::Effects()) {
+  const int given = p.reheat == sma::Reheat::new_loop ? 1 : 0;
+  if (!o.choose_reading) {
+    Diagnosis d = diagnose(p, log, o, progress, start);
+    d.reading_why = std::string("given (") + reading_name(p.reheat) + "): not compared";
+    return d;
+  }
+  sma::Params alt = p;
+  alt.reheat = given ? sma::Reheat::return_point : sma::Reheat::new_loop;
+  const double noise = noise_level(log);
+  const std::vector<double> a = predict(p, start, log), b = predict(alt, start, log);
+  double diff = 0.0;
+  for (size_t k = 0; k < a.size(); ++k) diff += (a[k] - b[k]) * (a[k] - b[k]);
+  diff = a.empty() ? 0.0 : ::sqrt(diff / static_cast<double>(a.size()));
+  char buf[320];
+  if (diff < noise) {
+    Diagnosis d = diagnose(p, log, o, progress, start);
+    std::snprintf(buf, sizeof buf,
+                  "kept %s: the two readings of a re-heat predict this log alike (%.2g mm RMS apart, "
+                  "noise %.2g mm)", reading_name(p.reheat), diff, noise);
+    d.reading_why = buf;
+    return d;
+  }
+  Diagnosis dg = diagnose(p, log, o, progress, start);
+  Diagnosis da = diagnose(alt, log, o, progress, start);
+  auto excess = [noise](double r) { return ::sqrt(std::max(r * r - noise * noise, 0.0)); };
+  const bool switch_reading = excess(da.rms_test_final) < 0.7 * excess(dg.rms_test_final) &&
+                              dg.rms_test_final - da.rms_test_final > 0.25 * noise;
+  Diagnosis& d = switch_reading ? da : dg;
+  d.reading_rms_test[given] = dg.rms_test_final;
+  d.reading_rms_test[1 - given] = da.rms_test_final;
+  std::snprintf(buf, sizeof buf,
+                "%s %s: final held-out gap %.4g mm with %s, %.4g mm with %s (noise %.2g mm; the readings "
+                "differ by %.2g mm RMS on this log)",
+                switch_reading ? "chose" : "kept", reading_name(d.params.reheat), d.rms_test_final,
+                reading_name(d.params.reheat), (switch_reading ? dg : da).rms_test_final,
+                reading_name((switch_reading ? dg : da).params.reheat), noise, diff);
+  d.reading_why = buf;
+  return d;
 }
 
 }  // namespace sma_host

@@ -125,3 +125,22 @@ TEST(ParamsJson, UnicodeEscapesNeedFourHexDigits) {
   EXPECT_NE(error_of("{\"h\\uZZZZ\": 40}"), "");
   EXPECT_EQ(error_of("{\"\\u0068\": 40}"), "");  // a real escape of 'h' is fine
 }
+
+// The re-heat reading of the loop memory (hysteresis.hpp): optional, default return_point, written
+// only when it is the other, anything else refused naming the key.
+TEST(ParamsJson, ReheatKey) {
+  EXPECT_TRUE(model_from_text("{}", "p").p.reheat == sma::Reheat::return_point);
+  EXPECT_EQ(model_to_json(Model()).find("reheat"), std::string::npos);
+  const Model m = model_from_text("{\"reheat\": \"new_loop\"}", "p");
+  EXPECT_TRUE(m.p.reheat == sma::Reheat::new_loop);
+  EXPECT_TRUE(model_from_text(model_to_json(m), "round").p.reheat == sma::Reheat::new_loop);
+  EXPECT_TRUE(model_from_text("{\"reheat\": \"return_point\"}", "p").p.reheat == sma::Reheat::return_point);
+  for (const char* bad : {"{\"reheat\": \"literal\"}", "{\"reheat\": 1}"}) {
+    try {
+      model_from_text(bad, "p.json");
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("'reheat'"), std::string::npos) << e.what();
+    }
+  }
+}

@@ -9,10 +9,13 @@
 // Choices beyond the paper (see model.md and README "Model choices"):
 //  - heating follows eps = max(eps, eps_h(T)): a heating that starts above the major curve
 //    stays flat until it meets it;
-//  - return-point memory: a heating that reverses before it transformed anything (eps stayed
-//    flat) does not open a new loop: the cooling resumes the branch it left, flat until the
-//    temperature falls back to where it left it. Without this, small temperature ripples
-//    would each add a rise j_i and ratchet eps up to 1.
+//  - return-point memory (Params::reheat = return_point, the default): a heating that reverses
+//    before it transformed anything (eps stayed flat) does not open a new loop: the cooling
+//    resumes the branch it left, flat until the temperature falls back to where it left it.
+//    Without this, small temperature ripples would each add a rise j_i and ratchet eps up to 1.
+//    The other reading (Reheat::new_loop, host builds only): model.md's text taken literally,
+//    every heating -> cooling reversal opens a loop at its peak, T_MSi from eq 10 with
+//    eps_h(T_i) also after a re-heat that changed no fraction (eps_i is then the fraction held).
 #ifndef SMA_HYSTERESIS_HPP
 #define SMA_HYSTERESIS_HPP
 
@@ -52,6 +55,9 @@ class PhaseCurves {
         q_(from_double<T>(p.q)),
         e_(from_double<T>(p.e)),
         n_knots_(static_cast<uint8_t>(p.n_loops + 2)) {
+#if SMA_REHEAT_READINGS
+    every_peak_ = p.reheat == Reheat::new_loop;
+#endif
     for (uint8_t k = 0; k < 6; ++k) m_[k] = from_double<T>(p.m[k]);
     // Knots of the piecewise-linear j(T_i) and span(T_i) = T_i - T_ii: zero at T_s and T_f.
     set_knot(0, p.T_s, 0.0, 0.0);
@@ -130,6 +136,13 @@ class PhaseCurves {
   T T_AF() const { return T_AF_; }
   T T_MF() const { return T_MF_; }
 
+  // Reheat::new_loop: a peak opens a loop even when the heating before it transformed nothing.
+#if SMA_REHEAT_READINGS
+  bool every_peak_opens_loop() const { return every_peak_; }
+#else
+  bool every_peak_opens_loop() const { return false; }
+#endif
+
  private:
   // Eqs 7-10; eh_i: eps_heat(T_i) when known.
   T martensite_start(T T_i, bool known, T eh_i) const {
@@ -165,6 +178,9 @@ class PhaseCurves {
   T m_[6];
   T q_, e_;
   uint8_t n_knots_;
+#if SMA_REHEAT_READINGS
+  bool every_peak_ = false;
+#endif
   T knot_T_[kMaxLoopKnots + 2];
   T knot_span_[kMaxLoopKnots + 2];
   T knot_j_[kMaxLoopKnots + 2];
@@ -202,16 +218,17 @@ class Hysteresis {
   // The loop a cooling that starts now would follow (what update() will build on the next
   // lower temperature). The inverse model needs it to invert the branch before walking it.
   CoolingLoop<T> loop_for_cooling() const {
-    if (heating_ && transformed_ && !peak_ready_) return curves_->make_loop(T_last_, eps_, true);
+    if (heating_ && opens_loop() && !peak_ready_) return curves_->make_loop(T_last_, eps_, transformed_);
     return loop_;
   }
 
   // The same loop, built once: the next update() that cools uses it instead of building it
   // again (a reversal tick would otherwise build the loop twice). Only a transformed heating
-  // replaces loop_ here, and such a heating replaces it at its peak anyway.
+  // replaces loop_ here (any heating with Reheat::new_loop), and such a heating replaces it at
+  // its peak anyway.
   const CoolingLoop<T>& prepare_cooling() {
-    if (heating_ && transformed_ && !peak_ready_) {
-      loop_ = curves_->make_loop(T_last_, eps_, true);
+    if (heating_ && opens_loop() && !peak_ready_) {
+      loop_ = curves_->make_loop(T_last_, eps_, transformed_);
       peak_ready_ = true;
     }
     return loop_;
@@ -241,8 +258,8 @@ class Hysteresis {
     } else if (Tw < T_last_) {
       if (heating_) {  // peak
         heating_ = false;
-        if (transformed_) {  // a new minor loop (eqs 5-11)
-          if (!peak_ready_) loop_ = curves_->make_loop(T_last_, eps_, true);
+        if (opens_loop()) {  // a new minor loop (eqs 5-11)
+          if (!peak_ready_) loop_ = curves_->make_loop(T_last_, eps_, transformed_);
           on_branch_ = true;
         }  // else: return-point memory, resume the old branch below T_left_
       }
@@ -255,6 +272,10 @@ class Hysteresis {
     peak_ready_ = false;
     return eps_;
   }
+
+  // Does a reversal now open a new loop? After a transforming heating always; after any
+  // heating with Reheat::new_loop.
+  bool opens_loop() const { return transformed_ || curves_->every_peak_opens_loop(); }
 
   const PhaseCurves<T>* curves_;
   T eps_;

@@ -21,6 +21,24 @@ struct LoopKnot {
 
 constexpr uint8_t kMaxLoopKnots = 8;
 
+// Which reading of a re-heat the loop memory runs (hysteresis.hpp; model.md marks the loop
+// rules as choices). A model-structure choice the identification makes from a log on the host;
+// the firmware runs return_point only (the field is compiled out on AVR: no RAM, no flash)
+// unless built with SMA_REHEAT_READINGS=1.
+#ifndef SMA_REHEAT_READINGS
+#if defined(__AVR__)
+#define SMA_REHEAT_READINGS 0
+#else
+#define SMA_REHEAT_READINGS 1
+#endif
+#endif
+constexpr bool kReheatReadings = SMA_REHEAT_READINGS != 0;
+
+enum class Reheat : uint8_t {
+  return_point = 0,  // a re-heat that transformed nothing keeps the interrupted loop
+  new_loop = 1,      // every heating -> cooling reversal opens a loop at its peak (eqs 7-10)
+};
+
 struct Params {
   // Thermal (eq 1) and wire geometry.
   double rho = 6500.0;   // kg/m^3
@@ -41,6 +59,9 @@ struct Params {
   // Identified loops between T_s and T_f (Table II, loops 2-4).
   LoopKnot loops[kMaxLoopKnots] = {{63.1, 61.2, 0.16}, {68.5, 59.1, 0.19}, {71.5, 65.2, 0.10}};
   uint8_t n_loops = 3;
+#if SMA_REHEAT_READINGS
+  Reheat reheat = Reheat::return_point;  // params JSON key "reheat"
+#endif
 
   // Derived thermal constants (eq 1).
   double heat_capacity() const { return rho * c * kPi * d0 * d0 * L0 / 4.0; }  // C_th, J/K

@@ -117,6 +117,17 @@ inline double need_number(const json::Value& v, const std::string& where, const 
   return v.num;
 }
 
+// The re-heat reading of the loop memory (sma::Reheat, hysteresis.hpp), key "reheat".
+inline const char* reheat_name(sma::Reheat r) {
+  return r == sma::Reheat::new_loop ? "new_loop" : "return_point";
+}
+inline sma::Reheat reheat_from_name(const json::Value& v, const std::string& at) {
+  const bool text = v.type == json::Value::Type::String;
+  if (text && v.str == "return_point") return sma::Reheat::return_point;
+  if (text && v.str == "new_loop") return sma::Reheat::new_loop;
+  throw Error(at + ": key 'reheat' must be \"return_point\" or \"new_loop\"");
+}
+
 // Fills `m` from a parsed object (keys not given keep their value in m).
 inline void model_from_json(const json::Value& root, Model& m, const std::string& name) {
   if (!root.is_object())
@@ -161,6 +172,8 @@ inline void model_from_json(const json::Value& root, Model& m, const std::string
         }
         m.p.loops[i] = {vals[0], vals[1], vals[2]};
       }
+    } else if (key == "reheat") {
+      m.p.reheat = reheat_from_name(v, at);
     } else if (key == "effects") {
       if (!v.is_object()) throw Error(at + ": key 'effects' must be an object {\"name\": {...}}");
       for (const auto& e : v.obj) {
@@ -178,7 +191,7 @@ inline void model_from_json(const json::Value& root, Model& m, const std::string
     } else {
       throw Error(at + ": unknown key '" + key +
                   "' (known: rho c h d0 L0 R T_amb T_AS T_AF T_MS T_MF T_s T_f T_MSs T_MSf q e g "
-                  "m loops effects)");
+                  "m loops reheat effects)");
     }
   }
 }
@@ -223,6 +236,9 @@ inline std::string model_to_json(const Model& m, bool pretty = true) {
            ", \"T_ii\": " + json::number(L.T_ii) + ", \"j\": " + json::number(L.j) + "}";
   }
   out += "]";
+  // Written only when it is not the default, so every other params file stays as it was.
+  if (m.p.reheat != sma::Reheat::return_point)
+    out += "," + nl + ind + "\"reheat\"" + sep + json::quote(reheat_name(m.p.reheat));
   const sma::Effects none;
   std::string fx;
   const char* open = nullptr;
