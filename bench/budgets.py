@@ -27,6 +27,9 @@ FLASH_MAX, RAM_MAX, STACK_MIN, CYCLES_MAX = 28672, 1536, 256, 16000
 RATCHET = os.path.join(os.path.dirname(os.path.abspath(__file__)), "budgets_ratchet.json")
 # figure -> True when larger is better (the stack margin), False when smaller is (the rest)
 FIGURES = {"flash_B": False, "static_ram_B": False, "stack_margin_B": True, "control_cycles_max": False}
+# A ratchet is exact for bytes; the worst tick's cycles move by a few with any change of code
+# layout on the same path, so its ratchet allows 1 %.
+RATCHET_SLACK = {"control_cycles_max": 0.01}
 
 
 def budget_of(row, fig, float_row):
@@ -63,7 +66,7 @@ def enforce(rows, ratchet):
             lim = rr.get(fig)
             if lim is None:
                 failures.append("%s %s = %s: over budget (%s) and no ratchet in %s" % (r["image"], fig, v, b, RATCHET))
-            elif within(v, lim, larger_better):
+            elif within(v, lim * (1.0 + RATCHET_SLACK.get(fig, 0.0)), larger_better):
                 print("%s %s = %s: over budget (issue 12): budget %s, ratchet %s" % (r["image"], fig, v, b, lim))
             elif within(lim, b, larger_better):
                 failures.append("%s %s = %s: breaks the budget %s (issue 12), met before (%s)" % (r["image"], fig, v, b, lim))

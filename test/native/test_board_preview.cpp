@@ -55,8 +55,14 @@ struct Bench {
   uint8_t ee[1024];
   std::vector<std::string> lines;
   B* b;
+  sma::Plant plant;  // the wire, continued by successive run() calls
   double temp_gap_C = 0;  // largest |wire temperature estimate (the latch's) - true temperature|
-  Bench() {
+  static sma::RigOptions rig_like() {
+    sma::RigOptions o;
+    o.noise_mm = 0.002;
+    return o;
+  }
+  Bench() : plant(sma::Params(), sma::Effects(), rig_like()) {
     memset(ee, 0xFF, sizeof ee);
     b = new B(Io{ee, &lines});
     b->boot(false, "# ready");
@@ -75,9 +81,6 @@ struct Bench {
   // over 96 samples, its PWM), `idle_plans` plan() calls between ticks; the true position.
   std::vector<sma_host::Sample> run(const std::string& command, double seconds, int idle_plans) {
     typedef Rig<Preview> R;
-    sma::RigOptions o;
-    o.noise_mm = 0.002;
-    sma::Plant plant(sma::Params(), sma::Effects(), o);
     EXPECT_EQ(cmd(command).rfind("OK", 0), 0u) << command;
     std::vector<sma_host::Sample> out;
     const int n = static_cast<int>(seconds * R::tick_hz());
@@ -175,6 +178,19 @@ TEST(BoardPreview, WithoutPlanningItStillFollowsTheReference) {
   EXPECT_LE(s.rms_mm, 0.1);
   // The estimate the latch sees is the preview's model wire (a controller running 0 V would
   // report ambient while the wire is at 60-80 degC).
+  EXPECT_LT(pv.temp_gap_C, 3.0);
+}
+
+// Leaving the preview for inverse + PID on a hot wire: the controller's estimate (which the latch
+// and the inverse model start from) continues from the preview's, not from where it stood when
+// the preview took over (the ambient at boot).
+TEST(BoardPreview, LeavingThePreviewKeepsTheTemperatureEstimate) {
+  Bench<true> pv;
+  pv.run("sine", 20.0, 2);  // heated towards the first peak
+  ASSERT_GT(pv.plant.temperature(), 50.0);
+  EXPECT_EQ(pv.cmd("mode ffpid").rfind("OK", 0), 0u);
+  pv.temp_gap_C = 0;
+  pv.run("status", 10.0, 0);  // the sine goes on under inverse + PID
   EXPECT_LT(pv.temp_gap_C, 3.0);
 }
 

@@ -556,6 +556,10 @@ class Board {
     if (c.op == Op::Volt || c.op == Op::Train) ctl().set_voltage(from_double<T>(state_.s.volt));
     const Mode m = state_.s.active_mode();
     if (kPreview && m == Mode::Preview && m != ctl().mode()) preview().start(ctl().wire_temperature(), v_.x.last_d_);
+    // Leaving the preview: the controller did not step while it ran; its estimate continues
+    // from the preview's (the latch and the inverse model start from it).
+    if (kPreview && ctl().mode() == Mode::Preview && m != Mode::Preview)
+      ctl().set_wire_temperature(preview().wire_temperature());
     if (m != ctl().mode()) ctl().set_mode(m, v_.x.last_d_);
     if (kPreview && c.op == Op::Cool) preview().set_cool_weight(state_.s.cool_weight);
     if (c.op == Op::Gains || c.op == Op::SetMode) ctl().set_gains(state_.s.gains());

@@ -102,6 +102,11 @@ class Controller {
 
   // Estimated wire temperature (eq 1 on the commanded voltage), deg C.
   T wire_temperature() const { return T_wire_; }
+  // Takes over the estimate of a controller that drove the wire meanwhile (the preview): the
+  // estimate is what the latch watches and where the inverse model restarts.
+  void set_wire_temperature(T Tw) {
+    if (is_finite(Tw)) T_wire_ = Tw;
+  }
 
   T v1() const { return v1_; }
   T v2() const { return v2_; }
