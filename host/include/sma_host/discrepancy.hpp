@@ -200,20 +200,12 @@ struct Split {
   std::vector<size_t> train, test;
 };
 
-// Training and held-out blocks alternate. Their lengths vary between 0.7 and 1.3 block_s
-// (a golden-ratio sequence, mean block_s): with equal blocks a periodic drive whose period is
-// twice the block (a 20 s sine, 10 s blocks) would show the held-out half one phase only.
+// Training and held-out blocks of block_s alternate.
 inline Split split_blocks(const RigLog& log, const Options& o) {
   Split s;
   std::vector<size_t> train, test;
-  long block = 0;
-  double block_end = log.t.empty() ? 0.0 : log.t[0] + 0.7 * o.block_s;
   for (size_t k = 0; k < log.size(); ++k) {
-    while (log.t[k] >= block_end) {
-      ++block;
-      const double golden = static_cast<double>(block) * 0.6180339887498949;
-      block_end += o.block_s * (0.7 + 0.6 * (golden - ::floor(golden)));
-    }
+    const long block = static_cast<long>((log.t[k] - log.t[0]) / o.block_s);
     ((block % 2) ? test : train).push_back(k);
   }
   const size_t stride = std::max<size_t>(1, train.size() / static_cast<size_t>(o.max_residuals));
