@@ -5,7 +5,7 @@ The virtual rig's wire is not the paper's (transformation 4 K higher, h 190 inst
 5 % more stroke: WIRE) and hides an effect the paper's model lacks (heat loss that grows faster than linearly
 with the temperature rise). Everything goes through the project's own tools, as a user would:
 
-  1. training run: the training image (sma_firmware_train.elf) in the virtual rig, driven over
+  1. training run: the one image (sma_firmware.elf) in the virtual rig, driven over
      its pseudo-terminal by   tools/sma console --send 'tele on' --send 'tlim 140' --send
                               'train S' --record train.csv --until 'train done'
   2. identification:          tools/sma fit train.csv
@@ -117,7 +117,7 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     a.vrig = os.path.join(a.build, "tools", "vrig", "vrig")
     a.elf = os.path.join(a.build, "firmware", "sma_firmware.elf")
-    train_elf = os.path.join(a.build, "firmware", "sma_firmware_train.elf")
+    train_elf = a.elf  # the one image has the training run
     a.metrics = os.path.join(a.build, "tools", "host", "sma_metrics")
     for p in (a.vrig, a.elf, train_elf, a.metrics):
         if not os.path.isfile(p):
@@ -130,7 +130,7 @@ def main():
 
     # 1. the training run, over the console
     dur = training_duration(a.build, a.slope)
-    log(f"1/5 training run: train image in the virtual rig, {dur:.0f} s of rig time at up to {a.speed:g}x "
+    log(f"1/5 training run: the firmware in the virtual rig, {dur:.0f} s of rig time at up to {a.speed:g}x "
         f"(~{dur / a.speed / 60:.0f} min or more), over the console ...")
     train = os.path.join(a.out, "train.csv")
     with PtyBoard(a.vrig, train_elf, dur + 120, a.speed, ["--params", a.wire, "--noise-mm", "0.002"]) as board:
