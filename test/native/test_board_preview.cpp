@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "board_test_io.hpp"
 #include "sma/board.hpp"
 #include "sma_host/metrics.hpp"
 #include "sma_host/plant.hpp"
@@ -36,18 +37,7 @@ struct Rig {
   static constexpr bool preview() { return Preview; }
 };
 
-struct Io {
-  uint8_t* ee;
-  std::vector<std::string>* lines;
-  bool line(const char* s, uint8_t len) {
-    lines->push_back(std::string(s, len));
-    return true;
-  }
-  uint8_t read(uint16_t a) const { return ee[a % 1024]; }
-  void write(uint16_t a, uint8_t v) { ee[a % 1024] = v; }
-  uint8_t irq_off() { return 0; }
-  void irq_restore(uint8_t) {}
-};
+typedef BoardTestIo Io;
 
 template <bool Preview>
 struct Bench {
