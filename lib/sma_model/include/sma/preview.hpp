@@ -84,7 +84,7 @@ struct PreviewConfig {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
     if (!(v_max > 0.0 && v_max <= 5.0)) return "v_max must be in 0..5";
     if (!(grid_s >= dt && grid_s <= 5.0)) return "grid_s must be in dt..5";
-    if (!(horizon_s >= grid_s && horizon_s / grid_s <= 40.0)) return "horizon_s must be in grid_s..40 grid_s";
+    if (!(horizon_s >= grid_s && horizon_s / grid_s <= 32.0)) return "horizon_s must be in grid_s..32 grid_s";
     if (!(steps_per_tick >= 1)) return "steps_per_tick must be >= 1";
     if (!(track_s >= dt && track_s <= 10.0)) return "track_s must be in dt..10";
     if (!(offset_tau_s > 0.0 && offset_tau_s <= 100.0)) return "offset_tau_s must be in 0..100";
@@ -101,7 +101,7 @@ struct PreviewConfig {
 template <class T>
 class PreviewCore {
  public:
-  static constexpr uint8_t kMaxGrid = 40;
+  static constexpr uint8_t kMaxGrid = 32;  // the default 16 s horizon on a 0.5 s grid
   static constexpr uint8_t kCandidates = 7;
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
 
@@ -135,9 +135,7 @@ class PreviewCore {
         track_next_(from_double<T>(cfg.track_s + cfg.dt)),
         dt_(cfg.dt),
         grid_s_(cfg.grid_s),
-        v_supply_(cfg.v_supply),
-        pack_(65535.0 / p.g),
-        unpack_(p.g / 65535.0) {
+        v_supply_(cfg.v_supply) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -265,10 +263,6 @@ class PreviewCore {
     return from_double<T>(v_supply_ * ::sqrt(n / top));
   }
 
-  // A reference sample 0..g as 0..65535, and back (in double: 65535 / g is beyond Q16.16).
-  uint16_t pack(T r) const { return static_cast<uint16_t>(to_double(r) * pack_ + 0.5); }
-  T unpack(uint16_t q) const { return from_double<T>(q * unpack_); }
-
   // The branch follows the reference once it has moved with it: a turn against the branch
   // (beyond the deadband, from the last extreme) switches it.
   void follow_reference(T ref) {
@@ -373,9 +367,9 @@ class PreviewCore {
     if (cand_ == 0) {  // the first candidate samples the future reference for all of them
       const double tau = (j_ + 1) * grid_s_ - elapsed_ticks_ * dt_;
       const T r = future(from_double<T>(tau > 0.0 ? tau : 0.0));
-      r_[j_] = is_finite(r) ? pack(clamp(r, T(0), mech_.g)) : (j_ ? r_[j_ - 1] : 0);
+      r_[j_] = is_finite(r) ? clamp(r, T(0), mech_.g) : (j_ ? r_[j_ - 1] : T(0));
     }
-    const T r = unpack(r_[j_]);
+    const T r = r_[j_];
     if (j_ == switch_at_[cand_] && sim_heat_ == heating_) {
       sim_heat_ = !sim_heat_;
       sim_moved_ = false;
@@ -399,11 +393,11 @@ class PreviewCore {
     // so the plan trades a long small error for a short large one the way the max metric does.
     const T e = T(10) * (mech_.displacement(sim_h_.update(sim_T_)) + d_ - r);
     const T e2 = e * e;
-    const T r_before = j_ ? unpack(r_[j_ - 1]) : ref_now_;
+    const T r_before = j_ ? r_[j_ - 1] : ref_now_;
     if (r < r_before - deadband_) sim_fall_ = true;
     if (r > r_before + deadband_) sim_fall_ = false;
     // The mean over the horizon, not the sum: Q16.16 (max 32767) holds it for any error of the
-    // stroke (e2 (1 + e2) <= ~8600 at 0.96 mm) and any cool_weight <= 100 on a 32-40 step grid.
+    // stroke (e2 (1 + e2) <= ~8600 at 0.96 mm) and any cool_weight <= 100 on a grid of up to kMaxGrid steps.
     cost_ = cost_ + (sim_fall_ ? cool_w_ : T(1)) * (e2 * (T(1) + e2) * inv_n_);
     ++j_;
   }
@@ -427,7 +421,6 @@ class PreviewCore {
   uint16_t pwm_top_;
   T track_, track_next_;  // track_s, and track_s + dt (the next tick's lead, sampled between ticks)
   double dt_, grid_s_, v_supply_;
-  double pack_, unpack_;  // reference samples: 65535 / g, g / 65535
   uint8_t switch_at_[kCandidates];
   // Model wire.
   T T_est_ = T(22), eps_est_ = T(0), deps_ = T(0), d_ = T(0), v_ = T(0);
@@ -435,9 +428,9 @@ class PreviewCore {
   bool falling_ = false;  // the reference's last move was down (the trade-off weight applies)
   T ref_extreme_ = T(0), ref_prev_ = T(0), ref_now_ = T(0);
   // Plan in progress.
-  // The plan's reference samples, 0..g in 65535 steps (~15 nm, below deadband_mm): half the RAM
-  // of T samples.
-  uint16_t r_[kMaxGrid];
+  // The plan's reference samples. (Not packed into 16 bits: ~15 nm steps were enough to move
+  // the planned switches at the sine's peaks, docs/control.md section 11.)
+  T r_[kMaxGrid];
   uint8_t cand_ = 0, j_ = 0, best_ = kNever;
   uint16_t elapsed_ticks_ = 0, plans_ = 0;
   uint16_t switch_due_ = 0;  // ticks until a planned branch switch, 0 = none
