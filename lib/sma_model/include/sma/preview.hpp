@@ -84,7 +84,7 @@ struct PreviewConfig {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
     if (!(v_max > 0.0 && v_max <= 5.0)) return "v_max must be in 0..5";
     if (!(grid_s >= dt && grid_s <= 5.0)) return "grid_s must be in dt..5";
-    if (!(horizon_s >= grid_s && horizon_s / grid_s <= 40.0)) return "horizon_s must be in grid_s..40 grid_s";
+    if (!(horizon_s >= grid_s && horizon_s / grid_s <= 32.0)) return "horizon_s must be in grid_s..32 grid_s";
     if (!(steps_per_tick >= 1)) return "steps_per_tick must be >= 1";
     if (!(track_s >= dt && track_s <= 10.0)) return "track_s must be in dt..10";
     if (!(offset_tau_s > 0.0 && offset_tau_s <= 100.0)) return "offset_tau_s must be in 0..100";
@@ -101,7 +101,7 @@ struct PreviewConfig {
 template <class T>
 class PreviewCore {
  public:
-  static constexpr uint8_t kMaxGrid = 40;
+  static constexpr uint8_t kMaxGrid = 32;  // the default 16 s horizon on a 0.5 s grid
   static constexpr uint8_t kCandidates = 7;
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
 
@@ -110,8 +110,7 @@ class PreviewCore {
   // second caller of check() keeps its messages in RAM: ~600 B).
   PreviewCore(const PhaseCurves<T>& curves, const Thermal<T>& thermal, const Params& p, const Effects& fx,
               const PreviewConfig& cfg, bool model_valid)
-      : cfg_(cfg),
-        curves_(curves),
+      : curves_(curves),
         thermal_(thermal),
         mech_(p),
         wire_step_(thermal_, p, cfg.dt, fx),
@@ -127,7 +126,16 @@ class PreviewCore {
         inv_n_(from_double<T>(1.0 / static_cast<int>(cfg.horizon_s / cfg.grid_s + 0.5))),
         deadband_(from_double<T>(cfg.deadband_mm)),
         n_grid_(static_cast<uint8_t>(cfg.horizon_s / cfg.grid_s + 0.5)),
-        valid_(model_valid && cfg.check() == nullptr) {
+        valid_(model_valid && cfg.check() == nullptr),
+        plan_in_step_(cfg.plan_in_step),
+        commit_switch_(cfg.commit_switch),
+        steps_per_tick_(cfg.steps_per_tick),
+        pwm_top_(cfg.pwm_top),
+        track_(from_double<T>(cfg.track_s)),
+        track_next_(from_double<T>(cfg.track_s + cfg.dt)),
+        dt_(cfg.dt),
+        grid_s_(cfg.grid_s),
+        v_supply_(cfg.v_supply) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -173,7 +181,6 @@ class PreviewCore {
   // The trade-off setting (PreviewConfig::cool_weight, 0..100); out of range: unchanged.
   bool set_cool_weight(double w) {
     if (!(w >= 0.0 && w <= 100.0)) return false;
-    cfg_.cool_weight = w;
     cool_w_ = from_double<T>(w);
     return true;
   }
@@ -190,20 +197,20 @@ class PreviewCore {
     follow_reference(ref);
     if (switch_due_ > 0 && --switch_due_ == 0) switch_branch();
     ++elapsed_ticks_;
-    if (cfg_.plan_in_step)
-      for (uint8_t k = 0; k < cfg_.steps_per_tick; ++k)
+    if (plan_in_step_)
+      for (uint8_t k = 0; k < steps_per_tick_; ++k)
         if (plan_step(future)) break;
     // The commanded temperature: this branch's inverse of the reference track_s ahead.
     // (Planning between ticks, plan_step() has already sampled it for this tick: no reference
     // evaluation left in the tick.)
-    T r_lead = lead_ready_ && !cfg_.plan_in_step ? lead_ : future(from_double<T>(cfg_.track_s));
+    T r_lead = lead_ready_ && !plan_in_step_ ? lead_ : future(track_);
     lead_ready_ = false;
     if (!is_finite(r_lead)) r_lead = ref;
     const T T_cmd = branch_temperature(heating_, est_, T_est_, clamp(r_lead, T(0), mech_.g));
     const T slope = (T_cmd - T_est_) * inv_track_;
     T v = min(thermal_.voltage_for(T_est_, slope, eps_est_, deps_), v_max_);  // eq 17
     if (!is_finite(v)) v = T(0);
-    if (!heating_ && cfg_.pwm_top > 0 && T_est_ > est_.loop_for_cooling().T_MSi) v = pwm_level_below(v);
+    if (!heating_ && pwm_top_ > 0 && T_est_ > est_.loop().T_MSi) v = pwm_level_below(v);  // loop(): prepared above
     v_ = v;
     // The model wire follows the commanded voltage.
     T_est_ = wire_step_(T_est_, v, eps_est_, deps_);
@@ -223,8 +230,8 @@ class PreviewCore {
   template <class Future>
   bool plan_step(const Future& future) {
     if (!valid_) return false;
-    if (!cfg_.plan_in_step && !lead_ready_) {  // first call after a tick: the next tick's lead sample (track_s ahead)
-      lead_ = future(from_double<T>(cfg_.track_s + cfg_.dt));
+    if (!plan_in_step_ && !lead_ready_) {  // first call after a tick: the next tick's lead sample (track_s ahead)
+      lead_ = future(track_next_);
       lead_ready_ = true;
       return false;
     }
@@ -237,7 +244,6 @@ class PreviewCore {
   T wire_temperature() const { return T_est_; }
   T offset() const { return d_; }                 // measured - model position, mm
   bool heating() const { return heating_; }       // the branch the controller drives
-  const PreviewConfig& config() const { return cfg_; }
   uint16_t plans() const { return plans_; }       // completed plans (tests, telemetry)
 
  private:
@@ -252,9 +258,9 @@ class PreviewCore {
   // a level of slack: a wire held at a level's own steady state stays on that level instead of
   // stepping down a level whenever the scalar's rounding lands just below it.
   T pwm_level_below(T v) const {
-    const double x = to_double(v) / cfg_.v_supply, top = cfg_.pwm_top;
+    const double x = to_double(v) / v_supply_, top = pwm_top_;
     const double n = ::floor(x * x * top + 0.01);
-    return from_double<T>(cfg_.v_supply * ::sqrt(n / top));
+    return from_double<T>(v_supply_ * ::sqrt(n / top));
   }
 
   // The branch follows the reference once it has moved with it: a turn against the branch
@@ -283,17 +289,22 @@ class PreviewCore {
 
   // The temperature the policy drives the wire to on a branch (eq 15 heating, eq 16 cooling on
   // the loop the hysteresis h would follow), never against the branch, for reference r (mm).
-  T branch_temperature(bool heat, const Hysteresis<T>& h, T Tw, T r) const {
+  // The cooling loop is built once (prepare_cooling): the reversal's update() and the PWM
+  // rounding reuse it (three builds of eqs 5-11 on one tick otherwise).
+  T branch_temperature(bool heat, Hysteresis<T>& h, T Tw, T r) const {
     const T eps_t = mech_.fraction(r - d_);  // eq 14, with the offset
     if (heat) return max(Tw, curves_.heat_temperature(eps_t));
-    const CoolingLoop<T> L = h.loop_for_cooling();
+    const CoolingLoop<T>& L = h.prepare_cooling();
     // Still above the end of the rise and asked to stay or go up: ride the rise (eqs 5-6).
     if (Tw > L.T_ii && !(eps_t < h.eps())) return min(Tw, curves_.rise_temperature(L, eps_t));
     return min(Tw, curves_.cool_temperature(L, eps_t));
   }
 
+  // (A plan's switch runs between ticks: the cooling loop it leads to is built there, not in
+  // the next tick.)
   void switch_branch() {
     heating_ = !heating_;
+    if (!heating_) est_.prepare_cooling();
     moved_with_ = false;
     ref_extreme_ = ref_now_;
     switch_due_ = 0;
@@ -335,8 +346,8 @@ class PreviewCore {
       // comes, unless a later plan prefers otherwise); without it only "now" switches, and
       // a switch that every new plan puts a few seconds later is never made.
       switch_due_ = 0;
-      if (cfg_.commit_switch && best_ != kNever && best_cost_ < natural_cost_ - switch_margin_) {
-        const long due = static_cast<long>(best_ * cfg_.grid_s / cfg_.dt + 0.5) - elapsed_ticks_;
+      if (commit_switch_ && best_ != kNever && best_cost_ < natural_cost_ - switch_margin_) {
+        const long due = static_cast<long>(best_ * grid_s_ / dt_ + 0.5) - elapsed_ticks_;
         if (due <= 0) switch_branch();
         else switch_due_ = static_cast<uint16_t>(due);
       } else if (best_ == 0 && best_cost_ < natural_cost_ - switch_margin_) {
@@ -354,7 +365,7 @@ class PreviewCore {
   template <class Future>
   void sim_step(const Future& future) {
     if (cand_ == 0) {  // the first candidate samples the future reference for all of them
-      const double tau = (j_ + 1) * cfg_.grid_s - elapsed_ticks_ * cfg_.dt;
+      const double tau = (j_ + 1) * grid_s_ - elapsed_ticks_ * dt_;
       const T r = future(from_double<T>(tau > 0.0 ? tau : 0.0));
       r_[j_] = is_finite(r) ? clamp(r, T(0), mech_.g) : (j_ ? r_[j_ - 1] : T(0));
     }
@@ -386,12 +397,11 @@ class PreviewCore {
     if (r < r_before - deadband_) sim_fall_ = true;
     if (r > r_before + deadband_) sim_fall_ = false;
     // The mean over the horizon, not the sum: Q16.16 (max 32767) holds it for any error of the
-    // stroke (e2 (1 + e2) <= ~8600 at 0.96 mm) and any cool_weight <= 100 on a 32-40 step grid.
+    // stroke (e2 (1 + e2) <= ~8600 at 0.96 mm) and any cool_weight <= 100 on a grid of up to kMaxGrid steps.
     cost_ = cost_ + (sim_fall_ ? cool_w_ : T(1)) * (e2 * (T(1) + e2) * inv_n_);
     ++j_;
   }
 
-  PreviewConfig cfg_;
   const PhaseCurves<T>& curves_;
   const Thermal<T>& thermal_;
   Mechanics<T> mech_;
@@ -405,6 +415,12 @@ class PreviewCore {
   T deadband_;
   uint8_t n_grid_;
   bool valid_;
+  // What the tick and the plan read of the PreviewConfig (the rest is folded into the above).
+  bool plan_in_step_, commit_switch_;
+  uint8_t steps_per_tick_;
+  uint16_t pwm_top_;
+  T track_, track_next_;  // track_s, and track_s + dt (the next tick's lead, sampled between ticks)
+  double dt_, grid_s_, v_supply_;
   uint8_t switch_at_[kCandidates];
   // Model wire.
   T T_est_ = T(22), eps_est_ = T(0), deps_ = T(0), d_ = T(0), v_ = T(0);
@@ -412,6 +428,8 @@ class PreviewCore {
   bool falling_ = false;  // the reference's last move was down (the trade-off weight applies)
   T ref_extreme_ = T(0), ref_prev_ = T(0), ref_now_ = T(0);
   // Plan in progress.
+  // The plan's reference samples. (Not packed into 16 bits: ~15 nm steps were enough to move
+  // the planned switches at the sine's peaks, docs/control.md section 11.)
   T r_[kMaxGrid];
   uint8_t cand_ = 0, j_ = 0, best_ = kNever;
   uint16_t elapsed_ticks_ = 0, plans_ = 0;
