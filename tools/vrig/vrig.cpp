@@ -130,8 +130,7 @@ std::string set_effect(sma::Effects& fx, const char* arg) {
   char* end = nullptr;
   const double v = strtod(eq + 1, &end);
   if (end == eq + 1 || *end != 0 || !std::isfinite(v)) return std::string("--effect '") + arg + "': not a number";
-  sma::Params unused;
-  *sma::param::value_ptr(unused, fx, k) = v;
+  sma_host::value(fx, k) = v;
   return "";
 }
 

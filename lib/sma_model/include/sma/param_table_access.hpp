@@ -225,6 +225,12 @@ inline double* value_ptr(Params& p, Effects& fx, uint8_t k) {
   char* base = i.kind == Kind::Effect ? reinterpret_cast<char*>(&fx) : reinterpret_cast<char*>(&p);
   return reinterpret_cast<double*>(base + (i.slot + stride * at.index) * sizeof(double));
 }
+// ... of an effect's key in fx alone (nullptr for any other key).
+inline double* value_ptr(Effects& fx, uint8_t k) {
+  const Place at = locate(k);
+  if (at.row >= static_cast<uint8_t>(Row::count) || row(at.row).kind != Kind::Effect) return nullptr;
+  return reinterpret_cast<double*>(reinterpret_cast<char*>(&fx) + row(at.row).slot * sizeof(double));
+}
 inline double get_value(const Params& p, const Effects& fx, uint8_t k) {
   if (k == key_of<Row::loops>()) return p.n_loops;
   const double* v = value_ptr(const_cast<Params&>(p), const_cast<Effects&>(fx), k);

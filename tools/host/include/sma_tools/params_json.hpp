@@ -36,15 +36,9 @@ struct EffectKey {
   std::string param;
   uint8_t key;
 };
-inline std::string key_name(uint8_t k) {
-  struct Out {
-    std::string s;
-    void put(char c) { s.push_back(c); }
-  } o;
-  sma::param::put_key_name(o, k);
-  return o.s;
-}
-inline sma::param::Kind key_kind(uint8_t k) { return sma::param::row(sma::param::locate(k).row).kind; }
+using sma_host::key_kind;
+using sma_host::key_name;
+using sma_host::value;
 inline const std::vector<ParamKey>& param_keys() {
   static const std::vector<ParamKey> keys = [] {
     std::vector<ParamKey> v;
@@ -61,16 +55,12 @@ inline const std::vector<EffectKey>& effect_keys() {
       if (key_kind(k) != sma::param::Kind::Effect) continue;
       const std::string n = key_name(k);
       const size_t dot = n.find('.');
-      v.push_back({n.substr(0, dot), n.substr(dot + 1), k});
+      v.push_back({n.substr(0, dot), n.substr(dot + 1), k});  // (effect_of_key, param_of_key)
     }
     return v;
   }();
   return keys;
 }
-// The value of flat key k (not the loop count) in m.
-inline double& value(Model& m, uint8_t k) { return *sma::param::value_ptr(m.p, m.fx, k); }
-inline double value(const Model& m, uint8_t k) { return sma::param::get_value(m.p, m.fx, k); }
-
 inline std::string effect_names_list() {
   std::string out, last;
   for (const auto& k : effect_keys()) {
@@ -101,8 +91,7 @@ inline void set_effect(sma::Effects& fx, const std::string& effect, const std::s
     if (effect != k.effect) continue;
     effect_known = true;
     if (param == k.param) {
-      sma::Params unused;
-      *sma::param::value_ptr(unused, fx, k.key) = value;
+      sma_host::value(fx, k.key) = value;
       return;
     }
     params += params.empty() ? k.param : std::string(", ") + k.param;
