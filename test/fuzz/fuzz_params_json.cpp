@@ -22,7 +22,7 @@ namespace {
 
 bool same(const sma_tools::Model& a, const sma_tools::Model& b) {
   for (const auto& k : sma_tools::param_keys())
-    if (!(a.p.*k.field == b.p.*k.field)) return false;
+    if (!(sma_tools::value(a, k.key) == sma_tools::value(b, k.key))) return false;
   for (int i = 0; i < 6; ++i)
     if (!(a.p.m[i] == b.p.m[i])) return false;
   if (a.p.n_loops != b.p.n_loops) return false;
@@ -31,7 +31,7 @@ bool same(const sma_tools::Model& a, const sma_tools::Model& b) {
           a.p.loops[i].j == b.p.loops[i].j))
       return false;
   for (const auto& k : sma_tools::effect_keys())
-    if (!(a.fx.*k.field == b.fx.*k.field)) return false;
+    if (!(sma_tools::value(a, k.key) == sma_tools::value(b, k.key))) return false;
   return true;
 }
 }  // namespace
@@ -68,8 +68,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (strncmp(e.what(), "fuzz.json", 9) != 0) fail("error message does not name the file", e.what());
     return 0;
   }
-  if (m.p.check() != nullptr) fail("accepted parameters fail Params::check()", m.p.check());
-  if (m.fx.check() != nullptr) fail("accepted effects fail Effects::check()", m.fx.check());
+  if (m.p.check()) fail("accepted parameters fail Params::check()", sma_tools::violation_text(m.p.check()).c_str());
+  if (m.fx.check()) fail("accepted effects fail Effects::check()", sma_tools::violation_text(m.fx.check()).c_str());
   for (bool pretty : {true, false}) {
     const std::string out = sma_tools::model_to_json(m, pretty);
     sma_tools::Model back;

@@ -687,9 +687,12 @@ TEST(ConsoleModel, CommitOfANonPhysicalSetNamesTheKeyAndKeepsTheActiveSet) {
   EXPECT_FALSE(b.rebuilt);
   EXPECT_EQ(b.run("pinfo"), "OK pinfo v1 defaults staging 0");
   b.run("pset T_AF 80.1");
-  b.run("pset gain 5");
-  EXPECT_EQ(b.run("pcommit"), "ERR sensor_calibration.gain: must be in 0.2..5");
-  b.run("pset sensor_calibration.gain 1");
+  // pset takes a value only inside its key's range, the one check() holds it to (one table):
+  // what pcommit can still refuse is how keys stand to each other.
+  EXPECT_EQ(b.run("pset gain 5.01"), "ERR sensor_calibration.gain: value out of range 0.2..5");
+  EXPECT_EQ(b.run("pset T_MS 20"), "OK pset T_MS 0x41a00000");
+  EXPECT_EQ(b.run("pcommit"), "ERR T_MS: must be > T_MF");
+  b.run("pset T_MS 28");
   b.run("pset loop0.T_i 70");
   EXPECT_EQ(b.run("pcommit"), "ERR loops: T_i must increase strictly inside (T_s, T_f)");
   EXPECT_EQ(b.run("pabort"), "OK pabort");

@@ -18,7 +18,7 @@ bool named(const Diagnosis& d, const std::string& name) {
 }
 
 // Fitted value of the effect's first parameter against the truth.
-double truth_of(const HiddenCase& c, const EffectSpec& s, int i) { return c.effects.*(s.field[i]); }
+double truth_of(const HiddenCase& c, const EffectSpec& s, int i) { return s.get(c.effects, i); }
 }  // namespace
 
 TEST(Discrepancy, NamesHiddenEffectsRecoversThemAndShrinksTheGap) {
@@ -75,7 +75,7 @@ TEST(Discrepancy, RobustToDroppedSamplesAndAMidTransformationStart) {
   for (const RigLog* log : {&dropped, &late}) {
     const Diagnosis d = diagnose(kP, *log);
     ASSERT_EQ(d.effects.size(), 1u);
-    EXPECT_STREQ(d.effects[0].spec->name, "latent_heat");
+    EXPECT_EQ(d.effects[0].spec->name, "latent_heat");
     EXPECT_NEAR(d.effects[0].value[0], 1.5, 0.1);
     EXPECT_LT(d.rms_final, 1.2 * d.noise_mm);
   }
@@ -136,7 +136,7 @@ TEST(Discrepancy, RefittingTheBaseRecoversAnEffectAFitAbsorbed) {
   o.refit_base = {find_base("h")};
   const Diagnosis d = diagnose(start, log, o);
   ASSERT_EQ(d.effects.size(), 1u);
-  EXPECT_STREQ(d.effects[0].spec->name, "convection_nonlinear");
+  EXPECT_EQ(d.effects[0].spec->name, "convection_nonlinear");
   EXPECT_NEAR(d.effects[0].value[0], 0.006, 0.0005);
   EXPECT_NEAR(d.params.h, 190.0, 5.0);
   EXPECT_LT(d.rms_final, 1.2 * d.noise_mm);
@@ -174,7 +174,7 @@ TEST(Discrepancy, RefittingTheWholeBaseOnATrainingRunNamesTheEffectAndKeepsTheSe
   EXPECT_EQ(o.refit_base.size(), 9u + 2u * start.n_loops);
   const Diagnosis d = diagnose(start, log, o, [](const char*) {}, given);
   ASSERT_FALSE(d.steps.empty());
-  EXPECT_STREQ(d.steps[0].added.spec->name, "convection_nonlinear");
+  EXPECT_EQ(d.steps[0].added.spec->name, "convection_nonlinear");
   for (const Step& s : d.steps) EXPECT_FALSE(at_neutral(s.added)) << s.added.spec->name;
   for (const FittedEffect& e : d.effects) {
     if (std::string(e.spec->name) == "convection_nonlinear") {
@@ -228,4 +228,24 @@ TEST(Discrepancy, EquivalentBaseKeepsTheSteadyStatesOfTheGivenFit) {
   const sma::Params r = equivalent_base(fit, *find_effect("resistance_phase"), &kR, base);
   EXPECT_EQ(r.h, fit.h);
   EXPECT_EQ(r.T_AF, fit.T_AF);
+}
+
+// The vocabulary is the parameter table's: every effect of the table has an entry, its names
+// are the table's, and its search bounds lie inside the range check() accepts.
+TEST(DiscrepancyVocabulary, IsTheParameterTables) {
+  size_t table_params = 0, vocab_params = 0;
+  for (uint8_t k = 0; k < sma::param::kKeys; ++k)
+    if (sma_host::key_kind(k) == sma::param::Kind::Effect) ++table_params;
+  for (const EffectSpec& s : sma_host::vocabulary()) {
+    for (int i = 0; i < s.n; ++i) {
+      ++vocab_params;
+      EXPECT_EQ(sma_host::key_name(s.key[i]), s.name + "." + s.param[i]);
+      double lo, hi;
+      sma::param::key_range(s.key[i], lo, hi);
+      EXPECT_TRUE(s.lo[i] >= lo && s.hi[i] <= hi) << s.name << "." << s.param[i];
+    }
+  }
+  EXPECT_EQ(vocab_params, table_params);
+  EXPECT_EQ(sma_host::vocabulary()[0].name, "sensor_delay");
+  EXPECT_EQ(sma_host::vocabulary()[2].param[1], "offset_mm");
 }

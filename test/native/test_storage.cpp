@@ -112,11 +112,8 @@ TEST(StorageKeys, DefaultsLieInsideTheirRanges) {
   }
 }
 
-TEST(StorageKeys, CheckMessagesNameTheirKey) {
-  EXPECT_EQ(st::key_of_message("T_AF must be > T_AS", false), 8);
-  EXPECT_EQ(st::key_of_message("loops: j must be in 0..1", false), st::kKeyLoops);
-  EXPECT_EQ(st::key_of_message("delay_s must be in 0..5", true), st::kFirstEffect);
-  EXPECT_EQ(st::key_of_message("k_R must be in -0.9..2", true), st::kFirstEffect + 6);
+TEST(StorageKeys, ThermalExpansionIsNotStored) {
+  EXPECT_EQ(st::key_index("alpha_per_K", 11), st::kNoKey);  // the board does not store it
 }
 
 TEST(Storage, Crc16IsCcittFalse) {

@@ -64,7 +64,7 @@ def test_unknown_and_nonphysical_params(binaries, tmp_path):
     neg = tmp_path / "neg.json"
     neg.write_text(json.dumps({"h": -3}))
     r = run_sma("fit", log, "--params", neg, "--out", tmp_path / "o", check=False)
-    assert r.returncode != 0 and "neg.json: h must be > 0" in r.stderr
+    assert r.returncode != 0 and "neg.json: h: must be in 0.01..1e5" in r.stderr
     r = run_sma("sim", "--volt", "const:1", "--effect", "sensor_delay.delay=1", check=False)
     assert r.returncode != 0 and "unknown parameter 'delay'" in r.stderr
 

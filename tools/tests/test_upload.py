@@ -171,7 +171,7 @@ def test_stop_option_turns_the_heater_off_first(tmp_path, helper, keys_default):
 
 
 def test_bad_file_is_refused_before_anything_is_sent(tmp_path, helper, keys_default):
-    for text, word in [('{"T_AZ": 1}', "unknown key 'T_AZ'"), ('{"T_AF": 40}', "T_AF must be > T_AS"),
+    for text, word in [('{"T_AZ": 1}', "unknown key 'T_AZ'"), ('{"T_AF": 40}', "T_AF: must be > T_AS"),
                        ('{"effects": {"sensor_delai": {}}}', "unknown effect 'sensor_delai'"),
                        ('{"T_AS": ', "wire.json")]:
         b = FakeBoard(keys_default)

@@ -102,8 +102,8 @@ void usage() {
           "  --params FILE.json  the simulated wire: Table II keys, m, loops and hidden effects\n"
           "                      (the params JSON of interfaces.md; default: the paper's)\n"
           "  --effect NAME.PARAM=V  hidden plant effect, vocabulary names, e.g.\n"
-          "                      sensor_delay.delay_s=0.05 (after --params; the old field form\n"
-          "                      sensor_delay_s=0.05 ... latent_heat_J=V still works)\n"
+          "                      sensor_delay.delay_s=0.05, or the parameter alone: delay_s=0.05\n"
+          "                      (after --params)\n"
           "  --truth FILE        the wire's true displacement (t_s,true_mm every 10 ms: no sensor\n"
           "                      effect, no noise), for tracking metrics under sensor effects\n"
           "  --eeprom FILE       the AVR's 1 KB EEPROM: read at start if FILE exists, written at\n"
@@ -118,35 +118,19 @@ void usage() {
           "  --quiet             do not print the firmware's lines\n");
 }
 
-// "name.param=V" (the vocabulary, interfaces.md) or the old "field=V" form. Returns "" or the
-// problem.
+// "name.param=V" (the vocabulary, interfaces.md) or "param=V" (the parameter alone, as the
+// board's pset takes it: delay_s=0.05). Returns "" or the problem.
 std::string set_effect(sma::Effects& fx, const char* arg) {
-  const std::string bad = std::string("--effect '") + arg +
-                          "': expected name.param=value, e.g. sensor_delay.delay_s=0.05";
   const char* eq = strchr(arg, '=');
-  if (!eq) return bad;
-  const char* dot = strchr(arg, '.');
-  if (dot && dot < eq) {
-    try {
-      sma_tools::set_effect_arg(fx, arg);
-    } catch (const std::exception& e) {
-      return e.what();
-    }
-    return "";
-  }
-  const std::string name(arg, eq);
+  const uint8_t k = eq && eq - arg < 255 ? sma::param::key_index(arg, static_cast<uint8_t>(eq - arg)) : sma::param::kNoKey;
+  if (k == sma::param::kNoKey || sma_tools::key_kind(k) != sma::param::Kind::Effect)
+    return std::string("--effect '") + arg +
+           "': expected name.param=value or param=value, e.g. sensor_delay.delay_s=0.05 (known: " +
+           sma_tools::effect_names_list() + ")";
   char* end = nullptr;
   const double v = strtod(eq + 1, &end);
-  if (end == eq + 1 || *end != 0 || !std::isfinite(v)) return bad;
-  if (name == "sensor_delay_s") fx.sensor_delay_s = v;
-  else if (name == "sensor_lag_s") fx.sensor_lag_s = v;
-  else if (name == "sensor_gain") fx.sensor_gain = v;
-  else if (name == "sensor_offset_mm") fx.sensor_offset_mm = v;
-  else if (name == "ambient_offset_K") fx.ambient_offset_K = v;
-  else if (name == "convection_beta_per_K") fx.convection_beta_per_K = v;
-  else if (name == "resistance_k") fx.resistance_k = v;
-  else if (name == "latent_heat_J") fx.latent_heat_J = v;
-  else return bad;
+  if (end == eq + 1 || *end != 0 || !std::isfinite(v)) return std::string("--effect '") + arg + "': not a number";
+  sma_host::value(fx, k) = v;
   return "";
 }
 
@@ -836,8 +820,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (const char* e = o.fx.check()) {
-    fprintf(stderr, "vrig: --effect: effects: %s\n", e);
+  if (const sma::param::Violation v = o.fx.check()) {
+    fprintf(stderr, "vrig: --effect: %s\n", sma_tools::violation_text(v).c_str());
     return 2;
   }
   if (!o.script.empty() && !read_script(o.script, rig.script)) return 2;

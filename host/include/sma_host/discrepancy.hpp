@@ -39,11 +39,8 @@ namespace sma_host {
 // ---- the vocabulary as fit problems --------------------------------------------------------
 
 struct EffectSpec {
-  const char* name;          // interfaces.md vocabulary
-  int n;                     // parameters (1 or 2)
-  const char* param[2];      // JSON names
-  double sma::Effects::*field[2];
-  double lo[2], hi[2];       // physical bounds
+  sma::param::Row row[2];    // its parameters: rows of the parameter table (none: one only)
+  double lo[2], hi[2];       // search bounds (inside the table's range: test_discrepancy)
   double scale[2];           // typical size: the optimiser works on value / scale
   double start[3][2];        // starting points [start][param]
   int n_starts;
@@ -51,36 +48,62 @@ struct EffectSpec {
   // A base parameter each parameter is only observable jointly with (nullptr: none): held at
   // its given value when that base parameter is refitted.
   const char* held_with[2];
+  // From the parameter table (vocabulary() fills them in):
+  std::string name = "";     // interfaces.md vocabulary
+  int n = 0;                 // parameters (1 or 2)
+  std::string param[2] = {"", ""};  // JSON names
+  uint8_t key[2] = {sma::param::kNoKey, sma::param::kNoKey};
+
+  double get(const sma::Effects& fx, int i) const { return value(fx, key[i]); }
+  double& at(sma::Effects& fx, int i) const { return value(fx, key[i]); }
 };
 
+// The flat key of an effect row.
+inline uint8_t effect_key(sma::param::Row r) {
+  uint8_t k = 0;
+  for (uint8_t i = 0; i < static_cast<uint8_t>(r); ++i) k = static_cast<uint8_t>(k + sma::param::width(sma::param::row(i).kind));
+  return k;
+}
+
 inline const std::vector<EffectSpec>& vocabulary() {
-  using E = sma::Effects;
-  static const std::vector<EffectSpec> v = {
+  using R = sma::param::Row;
+  static const std::vector<EffectSpec> v = [] {
+    std::vector<EffectSpec> s = {
       // A third start at 10 ms: a sensor that averages over the 10 ms tick (the firmware's
       // telemetry) lags by ~5 ms, which LM does not reach from 50 ms past the bound at 0.
-      {"sensor_delay", 1, {"delay_s", ""}, {&E::sensor_delay_s, nullptr}, {0, 0}, {2, 0}, {0.1, 1},
+      {{R::delay_s, R::none}, {0, 0}, {2, 0}, {0.1, 1},
        {{0.05, 0}, {0.4, 0}, {0.01, 0}}, 3, "a sharp voltage step: a delay shifts the whole edge, a lag rounds it", {nullptr, nullptr}},
-      {"sensor_lag", 1, {"tau_s", ""}, {&E::sensor_lag_s, nullptr}, {0, 0}, {5, 0}, {0.2, 1},
+      {{R::tau_s, R::none}, {0, 0}, {5, 0}, {0.2, 1},
        {{0.1, 0}, {1.0, 0}, {0.01, 0}}, 3, "a sharp voltage step: a lag rounds the edge, a delay shifts it", {nullptr, nullptr}},
-      {"sensor_calibration", 2, {"gain", "offset_mm"}, {&E::sensor_gain, &E::sensor_offset_mm},
+      {{R::gain, R::offset_mm},
        {0.5, -2}, {2, 2}, {0.1, 0.05}, {{1.0, 0.0}, {1.1, 0.0}}, 2,
        "holds at both ends of the stroke (cold and fully transformed)", {"g", nullptr}},  // gain x g
-      {"ambient_offset", 1, {"offset_K", ""}, {&E::ambient_offset_K, nullptr}, {-30, 0}, {30, 0}, {2, 1},
+      {{R::offset_K, R::none}, {-30, 0}, {30, 0}, {2, 1},
        {{-3, 0}, {3, 0}}, 2, "steady holds at several voltages: an offset shifts all steady states equally", {nullptr, nullptr}},
       // Three starts over the plausible range: with the whole base refitted, a wire of beta 0.006
       // is reached from 0.005 only; from 0.002 and 0.01 LM stops in side minima where g and T_AS
       // absorb the rest.
-      {"convection_nonlinear", 1, {"beta_per_K", ""}, {&E::convection_beta_per_K, nullptr}, {0, 0},
+      {{R::beta_per_K, R::none}, {0, 0},
        {0.05, 0}, {0.005, 1}, {{0.002, 0}, {0.005, 0}, {0.01, 0}}, 3,
        "steady holds at several voltages: its loss grows with the temperature rise", {nullptr, nullptr}},
-      {"resistance_phase", 1, {"k_R", ""}, {&E::resistance_k, nullptr}, {-0.5, 0}, {1.0, 0}, {0.1, 1},
+      {{R::k_R, R::none}, {-0.5, 0}, {1.0, 0}, {0.1, 1},
        {{-0.1, 0}, {0.1, 0}}, 2, "holds inside the transformation band at a constant voltage", {nullptr, nullptr}},
-      {"latent_heat", 1, {"L_J", ""}, {&E::latent_heat_J, nullptr}, {0, 0}, {20, 0}, {1, 1},
+      {{R::L_J, R::none}, {0, 0}, {20, 0}, {1, 1},
        {{0.5, 0}, {3.0, 0}}, 2, "fast voltage steps through the transformation band", {nullptr, nullptr}},
-      {"thermal_expansion", 1, {"alpha_per_K", ""}, {&E::thermal_expansion_per_K, nullptr}, {0, 0}, {1e-4, 0},
+      {{R::alpha_per_K, R::none}, {0, 0}, {1e-4, 0},
        {1e-5, 1}, {{5e-6, 0}, {2e-5, 0}}, 2,
        "heating past the end of the transformation: the position falls as the hot wire lengthens", {nullptr, nullptr}},
-  };
+    };
+    for (EffectSpec& e : s) {
+      e.n = e.row[1] == R::none ? 1 : 2;
+      for (int i = 0; i < e.n; ++i) {
+        e.key[i] = effect_key(e.row[i]);
+        e.param[i] = param_of_key(e.key[i]);
+      }
+      e.name = effect_of_key(e.key[0]);
+    }
+    return s;
+  }();
   return v;
 }
 
@@ -89,32 +112,33 @@ inline const std::vector<EffectSpec>& vocabulary() {
 // list: the set tools/sma fit identifies (sma_fit's default), so that the base a fit biased to
 // absorb a missing effect is re-identified together with that effect.
 struct BaseSpec {
-  const char* name;
-  double& (*ref)(sma::Params&);
-  double scale;  // typical change
+  uint8_t key;       // flat key of the parameter table
+  double scale;      // typical change
+  std::string name;  // the fit's (fit_name)
   double get(const sma::Params& p) const { return ref(const_cast<sma::Params&>(p)); }
+  double& ref(sma::Params& p) const {
+    sma::Effects none;  // (a base key is a Params one: the pointer is into p)
+    return *sma::param::value_ptr(p, none, key);
+  }
 };
 
 inline const std::vector<BaseSpec>& refittable_base() {
-  using P = sma::Params;
-  static const std::vector<BaseSpec> v = {
-      {"h", [](P& p) -> double& { return p.h; }, 20.0},
-      {"T_AS", [](P& p) -> double& { return p.T_AS; }, 2.0},
-      {"T_AF", [](P& p) -> double& { return p.T_AF; }, 2.0},
-      {"T_MF", [](P& p) -> double& { return p.T_MF; }, 2.0},
-      {"q", [](P& p) -> double& { return p.q; }, 2.0},
-      {"e", [](P& p) -> double& { return p.e; }, 2.0},
-      {"T_MSs", [](P& p) -> double& { return p.T_MSs; }, 2.0},
-      {"T_MSf", [](P& p) -> double& { return p.T_MSf; }, 2.0},
-      {"g", [](P& p) -> double& { return p.g; }, 0.05},
-      {"j1", [](P& p) -> double& { return p.loops[0].j; }, 0.02},
-      {"T_ii1", [](P& p) -> double& { return p.loops[0].T_ii; }, 1.0},
-      {"j2", [](P& p) -> double& { return p.loops[1].j; }, 0.02},
-      {"T_ii2", [](P& p) -> double& { return p.loops[1].T_ii; }, 1.0},
-      {"j3", [](P& p) -> double& { return p.loops[2].j; }, 0.02},
-      {"T_ii3", [](P& p) -> double& { return p.loops[2].T_ii; }, 1.0},
-      {"T_amb", [](P& p) -> double& { return p.T_amb; }, 2.0},
-  };
+  using sma::param::Row;
+  using sma::param::key_of;
+  static const std::vector<BaseSpec> v = [] {
+    std::vector<BaseSpec> s = {
+        {key_of<Row::h>(), 20.0, ""},         {key_of<Row::T_AS>(), 2.0, ""},
+        {key_of<Row::T_AF>(), 2.0, ""},       {key_of<Row::T_MF>(), 2.0, ""},
+        {key_of<Row::q>(), 2.0, ""},          {key_of<Row::e>(), 2.0, ""},
+        {key_of<Row::T_MSs>(), 2.0, ""},      {key_of<Row::T_MSf>(), 2.0, ""},
+        {key_of<Row::g>(), 0.05, ""},         {key_of<Row::loop_j>(0), 0.02, ""},
+        {key_of<Row::loop_T_ii>(0), 1.0, ""}, {key_of<Row::loop_j>(1), 0.02, ""},
+        {key_of<Row::loop_T_ii>(1), 1.0, ""}, {key_of<Row::loop_j>(2), 0.02, ""},
+        {key_of<Row::loop_T_ii>(2), 1.0, ""}, {key_of<Row::T_amb>(), 2.0, ""},
+    };
+    for (BaseSpec& b : s) b.name = fit_name(b.key);
+    return s;
+  }();
   return v;
 }
 
@@ -231,7 +255,7 @@ struct FittedEffect {
 };
 
 inline void apply(sma::Effects& fx, const FittedEffect& f) {
-  for (int i = 0; i < f.spec->n; ++i) fx.*(f.spec->field[i]) = f.value[i];
+  for (int i = 0; i < f.spec->n; ++i) f.spec->at(fx, i) = f.value[i];
 }
 
 inline sma::Effects effects_of(const std::vector<FittedEffect>& list) {
@@ -256,7 +280,7 @@ struct FitOutcome {
 inline bool frozen(const EffectSpec& e, int i, const std::vector<const BaseSpec*>& base) {
   if (!e.held_with[i]) return false;
   for (const BaseSpec* b : base)
-    if (strcmp(b->name, e.held_with[i]) == 0) return true;
+    if (b->name == e.held_with[i]) return true;
   return false;
 }
 
@@ -275,7 +299,7 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
   pb.tie_bands = false;
   pb.penalty = 1.0;  // mm: a non-physical trial
   const std::vector<ParamSpec> named = fittable_params(pb.start);
-  auto spec_of = [&named](const char* name, double scale, double lo, double hi) {
+  auto spec_of = [&named](const std::string& name, double scale, double lo, double hi) {
     for (const ParamSpec& s : named)
       if (s.name == name) {
         ParamSpec out = s;
@@ -285,7 +309,7 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
         out.hi = hi;
         return out;
       }
-    throw Error(std::string("discrepancy: no fittable parameter named '") + name + "'");
+    throw Error("discrepancy: no fittable parameter named '" + name + "'");
   };
   for (const FittedEffect& e : effects)
     for (int i = 0; i < e.spec->n; ++i)
@@ -311,7 +335,7 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
   FitOutcome out;
   out.params = fitted.p.check() == nullptr ? fitted.p : p;
   for (FittedEffect& e : effects)
-    for (int i = 0; i < e.spec->n; ++i) e.value[i] = fitted.fx.*(e.spec->field[i]);
+    for (int i = 0; i < e.spec->n; ++i) e.value[i] = e.spec->get(fitted.fx, i);
   const std::vector<double> pred = predict(out.params, effects_of(effects), log);
   out.rms_train = rms_on(pred, log, split.train);
   out.rms_test = rms_on(pred, log, split.test);
@@ -413,8 +437,8 @@ inline std::vector<FittedEffect> present_effects(const sma::Effects& fx) {
   std::vector<FittedEffect> out;
   for (const EffectSpec& s : vocabulary()) {
     bool on = false;
-    for (int i = 0; i < s.n; ++i) on = on || fx.*(s.field[i]) != none.*(s.field[i]);
-    if (on) out.push_back({&s, {fx.*(s.field[0]), s.n > 1 ? fx.*(s.field[1]) : 0.0}, {0, 0}});
+    for (int i = 0; i < s.n; ++i) on = on || s.get(fx, i) != s.get(none, i);
+    if (on) out.push_back({&s, {s.get(fx, 0), s.n > 1 ? s.get(fx, 1) : 0.0}, {0, 0}});
   }
   return out;
 }
@@ -455,7 +479,7 @@ inline bool at_bound(const FittedEffect& f) {
     const double tol = 1e-6 * (f.spec->hi[i] - f.spec->lo[i]);
     if (f.value[i] <= f.spec->lo[i] + tol || f.value[i] >= f.spec->hi[i] - tol) {
       const sma::Effects none;
-      if (f.value[i] != none.*(f.spec->field[i])) return true;  // a bound that is "no effect" is fine
+      if (f.value[i] != f.spec->get(none, i)) return true;  // a bound that is "no effect" is fine
     }
   }
   return false;
@@ -467,7 +491,7 @@ inline bool at_neutral(const FittedEffect& f) {
   const sma::Effects none;
   for (int i = 0; i < f.spec->n; ++i) {
     const double tol = fmax(f.ci95[i], 1e-9 * f.spec->scale[i]);
-    if (fabs(f.value[i] - none.*(f.spec->field[i])) > tol) return false;
+    if (fabs(f.value[i] - f.spec->get(none, i)) > tol) return false;
   }
   return true;
 }
@@ -522,7 +546,7 @@ inline Credibility credibility(const FitOutcome& current, const FitOutcome& win,
   // with the sensor zero and the stroke and is not judged).
   for (int i = 0; i < 1; ++i) {
     if (frozen(*added.spec, i, o.refit_base)) continue;
-    const double n0 = none.*(added.spec->field[i]);
+    const double n0 = added.spec->get(none, i);
     const double a = c.half[0][i] - n0, b = c.half[1][i] - n0;
     const double diff = fabs(a - b);
     const double sigma = sqrt(c.half_ci[0][i] * c.half_ci[0][i] + c.half_ci[1][i] * c.half_ci[1][i]) / 1.96;
@@ -600,7 +624,7 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
           if (neutral && b > 0) continue;
           std::vector<FittedEffect> trial = current.effects;
           FittedEffect add{&spec, {0, 0}, {0, 0}};
-          for (int i = 0; i < spec.n; ++i) add.value[i] = neutral ? none.*(spec.field[i]) : spec.start[s][i];
+          for (int i = 0; i < spec.n; ++i) add.value[i] = neutral ? spec.get(none, i) : spec.start[s][i];
           trial.push_back(add);
           sma::Params base0 = b == 0 ? current.params : p;
           if (b == 2) {
@@ -614,7 +638,7 @@ Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options& o, Pr
         }
       }
       found[c] = {spec.name, best.rms_test, best};
-      progress(spec.name);  // a candidate done (on one of o.threads threads)
+      progress(spec.name.c_str());  // a candidate done (on one of o.threads threads)
     });
     scores = found;
     std::sort(scores.begin(), scores.end(),

@@ -23,36 +23,31 @@ struct HiddenCase {
 };
 
 inline std::vector<HiddenCase> hidden_effect_cases() {
-  struct One {
-    const char* name;
-    double sma::Effects::*f;
+  // A strong value of each parameter of the vocabulary (above its identity value: gain 1, else 0).
+  using R = sma::param::Row;
+  const struct {
+    R row;
     double strong;
-    double sma::Effects::*f2;
-    double strong2;
+  } strong[] = {
+      {R::delay_s, 0.3}, {R::tau_s, 0.8}, {R::gain, 0.2}, {R::offset_mm, -0.05}, {R::offset_K, 6.0},
+      {R::beta_per_K, 0.01}, {R::k_R, 0.2}, {R::L_J, 3.0},
+      {R::alpha_per_K, 1.1e-5},  // NiTi austenite, ~1.1e-5/K: on the paper's 0.14 m wire 0.15 mm at 130 degC
   };
-  const One ones[] = {
-      {"sensor_delay", &sma::Effects::sensor_delay_s, 0.3, nullptr, 0},
-      {"sensor_lag", &sma::Effects::sensor_lag_s, 0.8, nullptr, 0},
-      {"sensor_calibration", &sma::Effects::sensor_gain, 0.2, &sma::Effects::sensor_offset_mm, -0.05},
-      {"ambient_offset", &sma::Effects::ambient_offset_K, 6.0, nullptr, 0},
-      {"convection_nonlinear", &sma::Effects::convection_beta_per_K, 0.01, nullptr, 0},
-      {"resistance_phase", &sma::Effects::resistance_k, 0.2, nullptr, 0},
-      {"latent_heat", &sma::Effects::latent_heat_J, 3.0, nullptr, 0},
-      // NiTi austenite, ~1.1e-5/K: on the paper's 0.14 m wire 0.15 mm at 130 degC.
-      {"thermal_expansion", &sma::Effects::thermal_expansion_per_K, 1.1e-5, nullptr, 0},
+  auto strong_of = [&strong](R r) {
+    for (const auto& s : strong)
+      if (s.row == r) return s.strong;
+    throw Error("hidden_effect_cases: no strong value for a parameter of the vocabulary");
   };
   std::vector<HiddenCase> cases;
   for (int ramp = 0; ramp < 2; ++ramp) {
     const std::string ex = ramp ? "ramp" : "steps";
     cases.push_back({ex + " / none", {}, sma::Effects(), ramp != 0});
-    for (const One& o : ones)
-      for (int strong = 0; strong < 2; ++strong) {
-        const double k = strong ? 1.0 : 1.0 / 3.0;
+    for (const EffectSpec& e : vocabulary())
+      for (int is_strong = 0; is_strong < 2; ++is_strong) {
+        const double k = is_strong ? 1.0 : 1.0 / 3.0;
         sma::Effects fx;
-        // sensor_gain is 1 + k * 0.2; every other parameter is k * its strong value
-        fx.*(o.f) = (o.f == &sma::Effects::sensor_gain ? 1.0 : 0.0) + k * o.strong;
-        if (o.f2) fx.*(o.f2) = k * o.strong2;
-        cases.push_back({ex + " / " + o.name + (strong ? " strong" : " weak"), {o.name}, fx, ramp != 0});
+        for (int i = 0; i < e.n; ++i) e.at(fx, i) += k * strong_of(e.row[i]);
+        cases.push_back({ex + " / " + e.name + (is_strong ? " strong" : " weak"), {e.name}, fx, ramp != 0});
       }
     sma::Effects a;
     a.sensor_delay_s = 0.3;

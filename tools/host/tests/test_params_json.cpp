@@ -66,9 +66,9 @@ TEST(ParamsJson, WrongTypesAndShapes) {
 
 TEST(ParamsJson, NonPhysicalValuesFailParamsCheck) {
   // The message is Params::check()'s: it starts with the key.
-  EXPECT_NE(error_of("{\"h\": -5}").find("p.json: h must be > 0"), std::string::npos);
-  EXPECT_NE(error_of("{\"T_AF\": 40}").find("p.json: T_AF must be > T_AS"), std::string::npos);
-  EXPECT_NE(error_of("{\"effects\": {\"sensor_lag\": {\"tau_s\": -1}}}").find("tau_s must be in 0..5"),
+  EXPECT_NE(error_of("{\"h\": -5}").find("p.json: h: must be in 0.01..1e5"), std::string::npos);
+  EXPECT_NE(error_of("{\"T_AF\": 40}").find("p.json: T_AF: must be > T_AS"), std::string::npos);
+  EXPECT_NE(error_of("{\"effects\": {\"sensor_lag\": {\"tau_s\": -1}}}").find("p.json: sensor_lag.tau_s: must be in 0..5"),
             std::string::npos);
 }
 

@@ -19,6 +19,8 @@
 #endif
 #endif
 
+#include "param_table.hpp"
+
 namespace sma {
 
 constexpr bool kThermalExpansion = SMA_THERMAL_EXPANSION != 0;
@@ -49,23 +51,12 @@ struct Effects {
   bool nonlinear_thermal() const {
     return convection_beta_per_K != 0.0 || resistance_k != 0.0 || latent_heat_J != 0.0;
   }
-  // nullptr when physical, else a message naming the parameter.
-  const char* check() const {
-    if (!(sensor_delay_s >= 0.0 && sensor_delay_s <= 5.0)) return "delay_s must be in 0..5";
-    if (!(sensor_lag_s >= 0.0 && sensor_lag_s <= 5.0)) return "tau_s must be in 0..5";
-    if (!(sensor_gain > 0.2 && sensor_gain < 5.0)) return "gain must be in 0.2..5";
-    if (!(sensor_offset_mm > -100.0 && sensor_offset_mm < 100.0)) return "offset_mm out of range";
-    if (!(ambient_offset_K > -50.0 && ambient_offset_K < 50.0)) return "offset_K must be in -50..50";
-    if (!(convection_beta_per_K >= 0.0 && convection_beta_per_K < 0.1))
-      return "beta_per_K must be in 0..0.1";
-    if (!(resistance_k > -0.9 && resistance_k < 2.0)) return "k_R must be in -0.9..2";
-    if (!(latent_heat_J >= 0.0 && latent_heat_J < 100.0)) return "L_J must be in 0..100";
-    if (kThermalExpansion && !(thermal_expansion_per_K >= 0.0 && thermal_expansion_per_K <= 1e-4))
-      return "alpha_per_K must be in 0..1e-4";
-    return nullptr;
-  }
+  // The first effect outside its range of the parameter table (param_table.hpp), or ok().
+  param::Violation check() const;
 };
 
 }  // namespace sma
+
+#include "param_table_access.hpp"  // Effects::check()
 
 #endif  // SMA_EFFECTS_HPP

@@ -8,6 +8,7 @@
 #define SMA_PARAMS_HPP
 
 #include <stdint.h>
+#include "param_table.hpp"
 #include "scalar.hpp"
 
 namespace sma {
@@ -67,43 +68,13 @@ struct Params {
   double heat_capacity() const { return rho * c * kPi * d0 * d0 * L0 / 4.0; }  // C_th, J/K
   double conductance() const { return kPi * d0 * L0 * h; }                     // G, W/K
 
-  // nullptr when the set is physical, else a message that starts with the offending key.
-  // Written as a chain of plain checks so the firmware can report it over serial as is.
-  const char* check() const;
+  // The first rule of the parameter table the set breaks (param_table.hpp; ok() when physical):
+  // its flat key and the rule, param::put_violation() writes the message.
+  param::Violation check() const;
 };
 
-// True for a finite number strictly greater than zero.
-inline bool positive(double x) { return is_finite(x) && x > 0.0; }
-
-inline const char* Params::check() const {
-  if (!positive(rho)) return "rho must be > 0";
-  if (!positive(c)) return "c must be > 0";
-  if (!positive(h)) return "h must be > 0";
-  if (!positive(d0)) return "d0 must be > 0";
-  if (!positive(L0)) return "L0 must be > 0";
-  if (!positive(R)) return "R must be > 0";
-  if (!is_finite(T_amb) || T_amb < -50.0 || T_amb > 100.0) return "T_amb must be in -50..100";
-  if (!is_finite(T_AS) || !is_finite(T_AF) || !(T_AF > T_AS)) return "T_AF must be > T_AS";
-  if (!is_finite(T_MS) || !is_finite(T_MF) || !(T_MS > T_MF)) return "T_MS must be > T_MF";
-  if (!is_finite(T_s) || !is_finite(T_f) || !(T_f > T_s)) return "T_f must be > T_s";
-  if (!is_finite(T_MSs) || !is_finite(T_MSf)) return "T_MSs must be finite";
-  for (uint8_t k = 0; k < 6; ++k)
-    if (!is_finite(m[k])) return "m must be finite";
-  if (!is_finite(q) || !is_finite(e)) return "q must be finite";
-  if (!positive(g)) return "g must be > 0";
-  if (n_loops > kMaxLoopKnots) return "loops: too many";
-  double prev = T_s;
-  for (uint8_t k = 0; k < n_loops; ++k) {
-    const LoopKnot& L = loops[k];
-    if (!is_finite(L.T_i) || !(L.T_i > prev) || !(L.T_i < T_f))
-      return "loops: T_i must increase strictly inside (T_s, T_f)";
-    if (!is_finite(L.T_ii) || L.T_ii > L.T_i) return "loops: T_ii must be <= T_i";
-    if (!is_finite(L.j) || L.j < 0.0 || L.j > 1.0) return "loops: j must be in 0..1";
-    prev = L.T_i;
-  }
-  return nullptr;
-}
-
 }  // namespace sma
+
+#include "param_table_access.hpp"  // Params::check()
 
 #endif  // SMA_PARAMS_HPP

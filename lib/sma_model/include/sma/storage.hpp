@@ -18,13 +18,11 @@
 // sequence and CRC, then the magic. A power loss anywhere before the last byte leaves the magic
 // cleared: the old set stays active (tested at every byte position, test/native/test_storage.cpp).
 //
-// Keys (the params JSON contract of interfaces.md, flattened), index k:
+// Keys: the flat keys of the parameter table (param_table.hpp), index k:
 //   0..17  rho c h d0 L0 R T_amb T_AS T_AF T_MS T_MF T_s T_f T_MSs T_MSf q e g
 //   18..23 m0..m5            24..47 loop<i>.T_i, loop<i>.T_ii, loop<i>.j (i = 0..7)
-//   48..55 sensor_delay.delay_s sensor_lag.tau_s sensor_calibration.gain
-//          sensor_calibration.offset_mm ambient_offset.offset_K convection_nonlinear.beta_per_K
-//          resistance_phase.k_R latent_heat.L_J (also accepted: the parameter alone, delay_s ...)
-//   56 loops (the number of loops, 0..8)
+//   48..55 sensor_delay.delay_s ... latent_heat.L_J (also accepted: the parameter alone)
+//   56 loops (the number of loops, 0..8); thermal_expansion.alpha_per_K (57) is not stored
 #ifndef SMA_STORAGE_HPP
 #define SMA_STORAGE_HPP
 
@@ -32,6 +30,7 @@
 #include <stdint.h>
 #include <string.h>
 #include "effects.hpp"
+#include "param_table_access.hpp"
 #include "params.hpp"
 #include "safety.hpp"  // SMA_F, flash_char
 
@@ -40,13 +39,18 @@ namespace storage {
 
 constexpr uint8_t kVersion = 1;
 constexpr uint8_t kMagic = 0xA5;
-constexpr uint8_t kFirstM = 18;
-constexpr uint8_t kFirstLoop = 24;
-constexpr uint8_t kFirstEffect = 48;
-constexpr uint8_t kNumValues = 56;  // float32 values
-constexpr uint8_t kKeyLoops = 56;   // the byte n_loops
-constexpr uint8_t kNumKeys = 57;
-constexpr uint8_t kNoKey = 255;
+// The flat keys of the parameter table (param_table.hpp) the board stores, in its order.
+constexpr uint8_t kFirstM = param::key_of<param::Row::m>();
+constexpr uint8_t kFirstLoop = param::key_of<param::Row::loop_T_i>();
+constexpr uint8_t kFirstEffect = param::key_of<param::Row::delay_s>();
+constexpr uint8_t kKeyLoops = param::key_of<param::Row::loops>();  // the byte n_loops
+constexpr uint8_t kNumValues = kKeyLoops;                         // float32 values
+constexpr uint8_t kNumKeys = kKeyLoops + 1;  // thermal_expansion (after it) is not stored
+constexpr uint8_t kNoKey = param::kNoKey;
+// The layout of the boards in the field (kVersion 1): changing it needs a new version.
+static_assert(kFirstM == 18 && kFirstLoop == 24 && kFirstEffect == 48 && kKeyLoops == 56,
+              "EEPROM layout of kVersion 1");
+static_assert(param::key_of<param::Row::L_J>() == kKeyLoops - 1, "the stored effects end before loops");
 constexpr uint16_t kHeader = 5;
 constexpr uint16_t kPayload = 4u * kNumValues + 1u;
 constexpr uint16_t kSlotSize = kHeader + kPayload;  // 230
@@ -60,162 +64,22 @@ inline uint16_t crc16(uint16_t crc, uint8_t b) {
   return crc;
 }
 
-// ---- keys --------------------------------------------------------------------------------------
+// ---- keys: the parameter table's (param_table_access.hpp), those the board stores -------------
 namespace detail {
-inline const char* table_names() { return SMA_F("rho c h d0 L0 R T_amb T_AS T_AF T_MS T_MF T_s T_f T_MSs T_MSf q e g"); }
-inline const char* effect_names() {
-  return SMA_F("sensor_delay.delay_s sensor_lag.tau_s sensor_calibration.gain "
-               "sensor_calibration.offset_mm ambient_offset.offset_K convection_nonlinear.beta_per_K "
-               "resistance_phase.k_R latent_heat.L_J");
-}
-inline const char* loop_fields() { return SMA_F("T_i T_ii j"); }
-
-// Index of tok[0..len) in a space-separated flash list, or kNoKey.
-inline uint8_t find_word(const char* list_f, const char* tok, uint8_t len) {
-  uint8_t idx = 0, k = 0;
-  bool match = true;
-  for (const char* p = list_f;; ++p) {
-    const char c = flash_char(p);
-    if (c == ' ' || c == 0) {
-      if (match && k == len) return idx;
-      if (c == 0) return kNoKey;
-      ++idx;
-      k = 0;
-      match = true;
-    } else {
-      if (k >= len || c != tok[k]) match = false;
-      if (k < 255) ++k;
-    }
-  }
-}
-
-// Writes word n of a flash list to o.
-template <class Out>
-inline void put_word(Out& o, const char* list_f, uint8_t n) {
-  for (const char* p = list_f;; ++p) {
-    const char c = flash_char(p);
-    if (c == 0) return;
-    if (c == ' ') {
-      if (n == 0) return;
-      --n;
-    } else if (n == 0) {
-      o.put(c);
-    }
-  }
-}
+using param::find_word;
+using param::put_word;
 }  // namespace detail
+#define SMA_STORAGE_TABLE SMA_FLASH_TABLE
 
-// Key index of a name, or kNoKey.
+// Key index of a name, or kNoKey (also for a key the board does not store).
 inline uint8_t key_index(const char* tok, uint8_t len) {
-  if (len == 2 && tok[0] == 'm' && tok[1] >= '0' && tok[1] <= '5') return static_cast<uint8_t>(kFirstM + (tok[1] - '0'));
-  if (len == 5 && detail::find_word(SMA_F("loops"), tok, len) == 0) return kKeyLoops;
-  if (len > 6 && tok[0] == 'l' && tok[1] == 'o' && tok[2] == 'o' && tok[3] == 'p' && tok[4] >= '0' && tok[4] <= '7' && tok[5] == '.') {
-    const uint8_t f = detail::find_word(detail::loop_fields(), tok + 6, static_cast<uint8_t>(len - 6));
-    if (f == kNoKey) return kNoKey;
-    return static_cast<uint8_t>(kFirstLoop + 3 * (tok[4] - '0') + f);
-  }
-  uint8_t k = detail::find_word(detail::table_names(), tok, len);
-  if (k != kNoKey) return k;
-  k = detail::find_word(detail::effect_names(), tok, len);
-  // The effect parameter alone is accepted too (each is unique): a long key plus a precise value
-  // would not fit a 47-char console line (pset convection_nonlinear.beta_per_K ...).
-  if (k == kNoKey) k = detail::find_word(SMA_F("delay_s tau_s gain offset_mm offset_K beta_per_K k_R L_J"), tok, len);
-  return k == kNoKey ? kNoKey : static_cast<uint8_t>(kFirstEffect + k);
+  const uint8_t k = param::key_index(tok, len);
+  return k < kNumKeys ? k : kNoKey;
 }
-
-// Writes the name of key k (as accepted by key_index) to o (anything with put(char)).
-template <class Out>
-inline void put_key_name(Out& o, uint8_t k) {
-  if (k < kFirstM) {
-    detail::put_word(o, detail::table_names(), k);
-  } else if (k < kFirstLoop) {
-    o.put('m');
-    o.put(static_cast<char>('0' + (k - kFirstM)));
-  } else if (k < kFirstEffect) {
-    const uint8_t i = static_cast<uint8_t>(k - kFirstLoop);
-    o.put('l'); o.put('o'); o.put('o'); o.put('p');
-    o.put(static_cast<char>('0' + i / 3));
-    o.put('.');
-    detail::put_word(o, detail::loop_fields(), static_cast<uint8_t>(i % 3));
-  } else if (k < kKeyLoops) {
-    detail::put_word(o, detail::effect_names(), static_cast<uint8_t>(k - kFirstEffect));
-  } else {
-    detail::put_word(o, SMA_F("loops"), 0);
-  }
-}
-
-// Range the console accepts for key k (Params::check / Effects::check then judge the whole set).
-// One byte per key selects a pair of bounds: tables in flash on AVR.
-namespace detail {
-#if defined(__AVR__)
-#define SMA_STORAGE_TABLE const PROGMEM
-inline uint8_t table_byte(const uint8_t* p) { return pgm_read_byte(p); }
-inline float table_float(const float* p) { return pgm_read_float(p); }
-#else
-#define SMA_STORAGE_TABLE const
-inline uint8_t table_byte(const uint8_t* p) { return *p; }
-inline float table_float(const float* p) { return *p; }
-#endif
-static SMA_STORAGE_TABLE float kBounds[][2] = {
-    {-100000.0f, 100000.0f},  // 0: m0..m5, q, e, h (upper)
-    {100.0f, 100000.0f},      // 1: rho
-    {10.0f, 10000.0f},        // 2: c
-    {0.01f, 100000.0f},       // 3: h
-    {0.000001f, 0.01f},       // 4: d0
-    {0.001f, 10.0f},          // 5: L0
-    {0.001f, 1000.0f},        // 6: R
-    {-50.0f, 100.0f},         // 7: T_amb
-    {-100.0f, 400.0f},        // 8: temperatures, loop T_i / T_ii
-    {0.001f, 100.0f},         // 9: g
-    {0.0f, 1.0f},             // 10: loop j
-    {0.0f, 5.0f},             // 11: delay_s, tau_s
-    {0.2f, 5.0f},             // 12: gain
-    {-100.0f, 100.0f},        // 13: offset_mm
-    {-50.0f, 50.0f},          // 14: offset_K
-    {0.0f, 0.1f},             // 15: beta_per_K
-    {-0.9f, 2.0f},            // 16: k_R
-    {0.0f, 100.0f},           // 17: L_J
-    {0.0f, 8.0f}};            // 18: loops (kMaxLoopKnots)
-static SMA_STORAGE_TABLE uint8_t kBoundOf[kNumKeys] = {
-    1, 2, 3, 4, 5, 6, 7, 8, 8, 8, 8, 8, 8, 8, 8, 0, 0, 9,  // Table II
-    0, 0, 0, 0, 0, 0,                                      // m
-    8, 8, 10, 8, 8, 10, 8, 8, 10, 8, 8, 10, 8, 8, 10, 8, 8, 10, 8, 8, 10, 8, 8, 10,  // loops
-    11, 11, 12, 13, 14, 15, 16, 17,                        // effects
-    18};                                                   // loops count
-// Position of key k among the doubles of Params (memory order: rho..T_MSf, m0..m5, q, e, g,
-// loops) or of Effects (from sensor_delay_s on).
-inline uint8_t params_slot(uint8_t k) {
-  return static_cast<uint8_t>(k < 15 ? k : k < kFirstM ? k + 6 : k < kFirstLoop ? k - 3 : k);
-}
-}  // namespace detail
-
-inline void key_range(uint8_t k, double& lo, double& hi) {
-  const float* b = detail::kBounds[detail::table_byte(&detail::kBoundOf[k < kNumKeys ? k : 0])];
-  lo = static_cast<double>(detail::table_float(b));
-  hi = static_cast<double>(detail::table_float(b + 1));
-}
-
-// The value of key k in (p, fx); nullptr for kKeyLoops (a byte: p.n_loops) or an unknown key.
-inline double* value_ptr(Params& p, Effects& fx, uint8_t k) {
-  static_assert(offsetof(Params, m) == offsetof(Params, rho) + 15 * sizeof(double), "Params layout");
-  static_assert(offsetof(Params, q) == offsetof(Params, rho) + 21 * sizeof(double), "Params layout");
-  static_assert(offsetof(Params, loops) == offsetof(Params, rho) + 24 * sizeof(double), "Params layout");
-  static_assert(sizeof(LoopKnot) == 3 * sizeof(double), "LoopKnot layout");
-  static_assert(offsetof(Effects, latent_heat_J) == offsetof(Effects, sensor_delay_s) + 7 * sizeof(double),
-                "Effects layout");
-  if (k < kFirstEffect)
-    return reinterpret_cast<double*>(reinterpret_cast<char*>(&p) + offsetof(Params, rho) +
-                                     detail::params_slot(k) * sizeof(double));
-  if (k < kKeyLoops)
-    return reinterpret_cast<double*>(reinterpret_cast<char*>(&fx) + offsetof(Effects, sensor_delay_s) +
-                                     (k - kFirstEffect) * sizeof(double));
-  return nullptr;
-}
-inline double get_value(const Params& p, const Effects& fx, uint8_t k) {
-  if (k == kKeyLoops) return p.n_loops;
-  const double* v = value_ptr(const_cast<Params&>(p), const_cast<Effects&>(fx), k);
-  return v ? *v : 0.0;
-}
+using param::get_value;
+using param::key_range;
+using param::put_key_name;
+using param::value_ptr;
 
 // float32 <-> 4 little-endian bytes (the stored format on AVR and host alike).
 inline uint32_t float_bits(double x) {
@@ -230,48 +94,17 @@ inline double bits_float(uint32_t u) {
   return static_cast<double>(f);
 }
 
-// Which key a check() message is about: "T_AF must be > T_AS" -> T_AF, "loops: ..." -> loops,
-// "delay_s must be ..." (Effects) -> sensor_delay.delay_s. kNoKey if none matches.
-inline uint8_t key_of_message(const char* msg, bool effects) {
-  uint8_t n = 0;
-  while (msg[n] != 0 && msg[n] != ' ' && msg[n] != ':') ++n;
-  if (!effects) return key_index(msg, n);
-  // Effects messages name the parameter: find "<effect>.<param>" ending with it.
-  for (uint8_t k = kFirstEffect; k < kKeyLoops; ++k) {
-    struct Buf {
-      char s[40];
-      uint8_t n = 0;
-      void put(char c) { if (n < 39) s[n++] = c; }
-    } b;
-    put_key_name(b, k);
-    if (b.n > n && b.s[b.n - n - 1] == '.' && memcmp(b.s + b.n - n, msg, n) == 0) return k;
-  }
-  return kNoKey;
-}
-
 // ---- validation ------------------------------------------------------------------------------------
 // A validator: const char* operator()(const Params&, const Effects&, uint8_t& bad_key) returning
-// nullptr for a valid set, else a message (read with flash_char) and the key it is about.
-// CheckValidator runs Params::check() and Effects::check(). On AVR their messages are RAM
-// strings, and any code that reads them keeps ~600 B of them in RAM: there it only tests for
-// nullptr (the firmware validates by building its controller, Controller::valid(), which calls
-// the same checks) and answers with a message in flash, without the key.
+// nullptr for a valid set, else a message (read with flash_char) and the key it is about (or
+// kNoKey). CheckValidator runs Params::check() and Effects::check(); the console writes the
+// message of what they found (param::put_violation).
 struct CheckValidator {
   const char* operator()(const Params& p, const Effects& fx, uint8_t& bad_key) const {
-    bad_key = kNoKey;
-#if defined(__AVR__)
-    if (p.check() != nullptr || fx.check() != nullptr) return SMA_F("set fails Params/Effects check()");
-#else
-    if (const char* m = p.check()) {
-      bad_key = key_of_message(m, false);
-      return m;
-    }
-    if (const char* m = fx.check()) {
-      bad_key = key_of_message(m, true);
-      return m;
-    }
-#endif
-    return nullptr;
+    param::Violation v = p.check();
+    if (v.ok()) v = fx.check();
+    bad_key = v.key;
+    return v.ok() ? nullptr : SMA_F("set fails Params/Effects check()");
   }
 };
 

@@ -1,8 +1,9 @@
 // Model parameters as JSON (interfaces.md): a flat object with the keys of Table II, `m` as the
 // list m0..m5, `loops` as a list of {"T_i","T_ii","j"} and `effects` as
-// {"<effect name>": {<its parameters>}}. Missing keys keep the paper's values (sma::Params
-// defaults); an unknown key is an error naming the key; the result must pass
-// sma::Params::check() and sma::Effects::check() (their message starts with the key).
+// {"<effect name>": {<its parameters>}}, every key from the parameter table (sma/param_table.hpp).
+// Missing keys keep the paper's values (sma::Params defaults); an unknown key is an error naming
+// the key; the result must pass sma::Params::check() and sma::Effects::check() (the message
+// names the key).
 #ifndef SMA_TOOLS_PARAMS_JSON_HPP
 #define SMA_TOOLS_PARAMS_JSON_HPP
 
@@ -15,6 +16,7 @@
 #include "error.hpp"
 #include "json.hpp"
 #include "sma/effects.hpp"
+#include "sma/param_table_access.hpp"
 #include "sma/params.hpp"
 #include "../../../../host/include/sma_host/model.hpp"  // relative: see error.hpp
 
@@ -22,53 +24,62 @@ namespace sma_tools {
 
 using sma_host::Model;
 
-// The scalar keys of the contract, in the order of interfaces.md, with their field.
+// The keys of the contract from the parameter table (sma/param_table.hpp), in its order: the
+// Table II scalars at the top level, and the effects' parameters "<effect>.<param>" under
+// "effects" (m and loops have their own shapes). `key`: the table's flat key.
 struct ParamKey {
-  const char* name;
-  double sma::Params::*field;
+  std::string name;
+  uint8_t key;
 };
-inline const std::vector<ParamKey>& param_keys() {
-  static const std::vector<ParamKey> keys = {
-      {"rho", &sma::Params::rho},     {"c", &sma::Params::c},       {"h", &sma::Params::h},
-      {"d0", &sma::Params::d0},       {"L0", &sma::Params::L0},     {"R", &sma::Params::R},
-      {"T_amb", &sma::Params::T_amb}, {"T_AS", &sma::Params::T_AS}, {"T_AF", &sma::Params::T_AF},
-      {"T_MS", &sma::Params::T_MS},   {"T_MF", &sma::Params::T_MF}, {"T_s", &sma::Params::T_s},
-      {"T_f", &sma::Params::T_f},     {"T_MSs", &sma::Params::T_MSs},
-      {"T_MSf", &sma::Params::T_MSf}, {"q", &sma::Params::q},       {"e", &sma::Params::e},
-      {"g", &sma::Params::g}};
-  return keys;
-}
-
-// The effects vocabulary (interfaces.md) and their JSON parameter names.
 struct EffectKey {
-  const char* effect;
-  const char* param;
-  double sma::Effects::*field;
+  std::string effect;
+  std::string param;
+  uint8_t key;
 };
-inline const std::vector<EffectKey>& effect_keys() {
-  static const std::vector<EffectKey> keys = {
-      {"sensor_delay", "delay_s", &sma::Effects::sensor_delay_s},
-      {"sensor_lag", "tau_s", &sma::Effects::sensor_lag_s},
-      {"sensor_calibration", "gain", &sma::Effects::sensor_gain},
-      {"sensor_calibration", "offset_mm", &sma::Effects::sensor_offset_mm},
-      {"ambient_offset", "offset_K", &sma::Effects::ambient_offset_K},
-      {"convection_nonlinear", "beta_per_K", &sma::Effects::convection_beta_per_K},
-      {"resistance_phase", "k_R", &sma::Effects::resistance_k},
-      {"latent_heat", "L_J", &sma::Effects::latent_heat_J},
-      {"thermal_expansion", "alpha_per_K", &sma::Effects::thermal_expansion_per_K}};
+using sma_host::key_kind;
+using sma_host::key_name;
+using sma_host::value;
+inline const std::vector<ParamKey>& param_keys() {
+  static const std::vector<ParamKey> keys = [] {
+    std::vector<ParamKey> v;
+    for (uint8_t k = 0; k < sma::param::kKeys; ++k)
+      if (key_kind(k) == sma::param::Kind::Table) v.push_back({key_name(k), k});
+    return v;
+  }();
   return keys;
 }
-
+inline const std::vector<EffectKey>& effect_keys() {
+  static const std::vector<EffectKey> keys = [] {
+    std::vector<EffectKey> v;
+    for (uint8_t k = 0; k < sma::param::kKeys; ++k) {
+      if (key_kind(k) != sma::param::Kind::Effect) continue;
+      const std::string n = key_name(k);
+      const size_t dot = n.find('.');
+      v.push_back({n.substr(0, dot), n.substr(dot + 1), k});  // (effect_of_key, param_of_key)
+    }
+    return v;
+  }();
+  return keys;
+}
 inline std::string effect_names_list() {
-  std::string out;
-  const char* last = "";
+  std::string out, last;
   for (const auto& k : effect_keys()) {
-    if (std::string(k.effect) == last) continue;
+    if (k.effect == last) continue;
     if (!out.empty()) out += ", ";
     out += k.effect;
     last = k.effect;
   }
   return out;
+}
+
+// What check() found, as its message ("T_AF: must be > T_AS").
+inline std::string violation_text(sma::param::Violation v) {
+  struct Out {
+    std::string s;
+    void put(char c) { s.push_back(c); }
+  } o;
+  sma::param::put_violation(o, v);
+  return o.s;
 }
 
 // Sets effect parameter `effect`.`param`; throws naming what is unknown.
@@ -80,7 +91,7 @@ inline void set_effect(sma::Effects& fx, const std::string& effect, const std::s
     if (effect != k.effect) continue;
     effect_known = true;
     if (param == k.param) {
-      fx.*k.field = value;
+      sma_host::value(fx, k.key) = value;
       return;
     }
     params += params.empty() ? k.param : std::string(", ") + k.param;
@@ -104,10 +115,10 @@ inline void set_effect_arg(sma::Effects& fx, const std::string& arg) {
   set_effect(fx, arg.substr(0, dot), arg.substr(dot + 1, eq - dot - 1), x, "--effect: ");
 }
 
-// Checks a model; throws "<where>: <message starting with the key>".
+// Checks a model; throws "<where>: <key>: <why>" (the parameter table's message).
 inline void check_model(const Model& m, const std::string& where) {
-  if (const char* msg = m.p.check()) throw Error(where + ": " + msg);
-  if (const char* msg = m.fx.check()) throw Error(where + ": effects: " + msg);
+  if (const sma::param::Violation v = m.p.check()) throw Error(where + ": " + violation_text(v));
+  if (const sma::param::Violation v = m.fx.check()) throw Error(where + ": " + violation_text(v));
 }
 
 inline double need_number(const json::Value& v, const std::string& where, const std::string& key) {
@@ -140,7 +151,7 @@ inline void model_from_json(const json::Value& root, Model& m, const std::string
     bool done = false;
     for (const auto& k : param_keys()) {
       if (key == k.name) {
-        m.p.*k.field = need_number(v, name, key);
+        value(m, k.key) = need_number(v, name, key);
         done = true;
         break;
       }
@@ -189,9 +200,11 @@ inline void model_from_json(const json::Value& root, Model& m, const std::string
                      name + ":" + std::to_string(pv.second.line) + ": ");
       }
     } else {
-      throw Error(at + ": unknown key '" + key +
-                  "' (known: rho c h d0 L0 R T_amb T_AS T_AF T_MS T_MF T_s T_f T_MSs T_MSf q e g "
-                  "m loops reheat effects)");
+    {
+      std::string known;
+      for (const auto& k : param_keys()) known += k.name + " ";
+      throw Error(at + ": unknown key '" + key + "' (known: " + known + "m loops reheat effects)");
+    }
     }
   }
 }
@@ -226,7 +239,7 @@ inline std::string model_to_json(const Model& m, bool pretty = true) {
   const std::string sep = pretty ? ": " : ":";
   std::string out = "{" + nl;
   for (const auto& k : param_keys())
-    out += ind + json::quote(k.name) + sep + json::number(m.p.*k.field) + "," + nl;
+    out += ind + json::quote(k.name) + sep + json::number(value(m, k.key)) + "," + nl;
   out += ind + "\"m\"" + sep + "[";
   for (int i = 0; i < 6; ++i) out += (i ? ", " : "") + json::number(m.p.m[i]);
   out += "]," + nl + ind + "\"loops\"" + sep + "[";
@@ -239,21 +252,20 @@ inline std::string model_to_json(const Model& m, bool pretty = true) {
   // Written only when it is not the default, so every other params file stays as it was.
   if (m.p.reheat != sma::Reheat::return_point)
     out += "," + nl + ind + "\"reheat\"" + sep + json::quote(reheat_name(m.p.reheat));
-  const sma::Effects none;
-  std::string fx;
-  const char* open = nullptr;
+  const Model none;
+  std::string fx, open;
   for (const auto& k : effect_keys()) {
-    if (m.fx.*k.field == none.*k.field) continue;
-    if (!open || std::string(open) != k.effect) {
-      if (open) fx += "}, ";
+    if (value(m, k.key) == value(none, k.key)) continue;
+    if (open != k.effect) {
+      if (!open.empty()) fx += "}, ";
       fx += json::quote(k.effect) + sep + "{";
       open = k.effect;
     } else {
       fx += ", ";
     }
-    fx += json::quote(k.param) + sep + json::number(m.fx.*k.field);
+    fx += json::quote(k.param) + sep + json::number(value(m, k.key));
   }
-  if (open) out += "," + nl + ind + "\"effects\"" + sep + "{" + fx + "}}";
+  if (!open.empty()) out += "," + nl + ind + "\"effects\"" + sep + "{" + fx + "}}";
   out += nl + "}" + (pretty ? "\n" : "");
   return out;
 }

@@ -51,6 +51,22 @@ inline void pget_default_line(Reply& r, uint8_t key, double v) {
   pget_line(r, key, v, key == storage::kKeyLoops ? static_cast<uint32_t>(v) : storage::float_bits(v));
 }
 
+// pcommit refused by check() (storage::CheckValidator): `ERR <key>: <why>`, the message of the
+// parameter table (param::put_violation) for the staged set, now in (p, fx).
+inline void put_refused(Reply& r, const storage::CheckValidator&, const char*, const Params& p,
+                        const Effects& fx) {
+  param::Violation v = p.check();
+  if (v.ok()) v = fx.check();
+  r.put_f(SMA_F("ERR "));
+  param::put_violation(r, v);
+}
+// By another validator (the firmware's: the controller built from the set): `ERR pcommit: <why>`.
+template <class V>
+inline void put_refused(Reply& r, const V&, const char* msg, const Params&, const Effects&) {
+  r.put_f(SMA_F("ERR pcommit: "));
+  r.put_f(msg);
+}
+
 template <class E>
 inline bool model_command(const Command& c, storage::Store<E>& st, Params& scratch, Effects& fxs,
                           Reply& r) {
@@ -100,21 +116,8 @@ inline bool model_command(const Command& c, storage::Store<E>& st, Params& scrat
         return false;
       }
       uint8_t bad = storage::kNoKey;
-      const char* msg = st.commit(scratch, fxs, bad, valid);
-      if (msg) {
-        // `ERR <key>: <why>`: the check() message starts with its key (Effects: the parameter).
-        // Without a key (AVR): `ERR pcommit: <message>`.
-        r.put_f(SMA_F("ERR "));
-        uint8_t n = 0;
-        if (bad != storage::kNoKey) {
-          storage::put_key_name(r, bad);
-          while (flash_char(msg + n) != 0 && flash_char(msg + n) != ' ' && flash_char(msg + n) != ':') ++n;
-          while (flash_char(msg + n) == ' ' || flash_char(msg + n) == ':') ++n;
-        } else {
-          r.put_f(SMA_F("pcommit"));
-        }
-        r.put_f(SMA_F(": "));
-        r.put_f(msg + n);
+      if (const char* msg = st.commit(scratch, fxs, bad, valid)) {
+        put_refused(r, valid, msg, scratch, fxs);
         return false;
       }
       pinfo_line(r, SMA_F("OK pcommit v"), st.active(), st.staging(), st.seq(), st.crc());
