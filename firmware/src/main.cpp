@@ -76,14 +76,19 @@ static const uint16_t kAdcLo =
     static_cast<uint16_t>(RIG_SENSOR_V_MIN / RIG_ADC_VREF * RIG_ADC_COUNTS + 0.5);
 static const uint16_t kAdcHi =
     static_cast<uint16_t>(RIG_SENSOR_V_MAX / RIG_ADC_VREF * RIG_ADC_COUNTS + 0.5);
-static volatile uint32_t g_adc_sum = 0;
+// The sum as 16 low bits and a carry count (up to 255 samples of 10 bits need 18): a 16-bit add
+// keeps the ISR's frame small, and it lands on top of the deepest stack of the main line.
+static volatile uint16_t g_adc_sum_lo = 0;
+static volatile uint8_t g_adc_sum_hi = 0;
 static volatile uint8_t g_adc_n = 0;
 static volatile uint8_t g_adc_bad = 0;
 
 ISR(ADC_vect) {
   const uint16_t a = ADC;
   if (g_adc_n < 255) {
-    g_adc_sum += a;
+    const uint16_t s = static_cast<uint16_t>(g_adc_sum_lo + a);
+    g_adc_sum_lo = s;
+    if (s < a) ++g_adc_sum_hi;
     ++g_adc_n;
     if (a < kAdcLo || a > kAdcHi) ++g_adc_bad;
   }
@@ -257,10 +262,11 @@ static void __attribute__((noinline)) control_tick() {
   uint32_t sum;
   uint8_t n, bad;
   cli();
-  sum = g_adc_sum;
+  sum = (static_cast<uint32_t>(g_adc_sum_hi) << 16) | g_adc_sum_lo;
   n = g_adc_n;
   bad = g_adc_bad;
-  g_adc_sum = 0;
+  g_adc_sum_lo = 0;
+  g_adc_sum_hi = 0;
   g_adc_n = 0;
   g_adc_bad = 0;
   sei();

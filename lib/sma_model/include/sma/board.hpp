@@ -306,7 +306,7 @@ class Board {
   // Effective volts -> PWM counts n of duty (V / V_supply)^2, n / (TOP + 1); below one count: 0.
   static uint16_t pwm_counts(float v) {
     const float top1 = static_cast<float>(Rig::pwm_top() + 1UL);
-    float duty = v / static_cast<float>(Rig::v_supply());
+    float duty = v * static_cast<float>(1.0 / Rig::v_supply());  // (a division: ~500 cycles)
     duty = duty * duty;
     float nf = duty * top1 + 0.5f;
     if (!(nf >= 1.0f)) nf = 0.0f;  // also NaN

@@ -50,10 +50,8 @@ class Controller {
  public:
   Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg)
       : cfg_(cfg),
-        mech_(p, fx),
         inverse_(p, fx, with_dt(cfg.inverse, cfg.dt, cfg.v_max)),
         pid_(cfg.gains, cfg.dt),
-        wire_step_(inverse_.thermal(), p, cfg.dt, fx),
         T_wire_(from_double<T>(p.T_amb + fx.ambient_offset_K)),
         v_max_(from_double<T>(cfg.v_max)),
         valid_(p.check() == nullptr && fx.check() == nullptr && cfg.check() == nullptr) {}
@@ -69,7 +67,7 @@ class Controller {
     if (m == mode_ || !valid_) return;
     const bool ff = m == Mode::Feedforward || m == Mode::FeedforwardPid;
     const bool had_ff = mode_ == Mode::Feedforward || mode_ == Mode::FeedforwardPid;
-    if (ff && !had_ff) inverse_.reset(T_wire_, mech_.fraction(measurement, T_wire_));
+    if (ff && !had_ff) inverse_.reset(T_wire_, mech().fraction(measurement, T_wire_));
     if (m == Mode::Pid || m == Mode::FeedforwardPid) {
       const T v1 = (m == Mode::FeedforwardPid) ? v1_ : T(0);
       pid_.start(measurement, T(0), v_ - v1);
@@ -94,9 +92,9 @@ class Controller {
     // estimate); latent heat is left out of the estimate (d(eps)/dt of a noisy measurement
     // would be all noise).
     // (Eq 1 of the paper does not need it: skip the work.)
-    if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? mech_.fraction(measured, T_wire_) : T(0);
+    if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? mech().fraction(measured, T_wire_) : T(0);
     v_ = compute(ref, measured);
-    T_wire_ = wire_step_(T_wire_, v_, eps_meas_);
+    T_wire_ = wire_step()(T_wire_, v_, eps_meas_);
     return v_;
   }
 
@@ -114,6 +112,11 @@ class Controller {
   const InverseModel<T>& inverse() const { return inverse_; }
 
  private:
+  // The inverse model's eq 12 and wire step (the same dt and effects): built once, not twice
+  // (flash and RAM on the Uno).
+  const Mechanics<T>& mech() const { return inverse_.mechanics(); }
+  const WireStep<T>& wire_step() const { return inverse_.wire_step(); }
+
   static InverseConfig with_dt(InverseConfig c, double dt, double v_max) {
     c.dt = dt;
     c.v_max = v_max;
@@ -127,7 +130,7 @@ class Controller {
     v1_ = T(0);
     v2_ = T(0);
     if (!is_finite(ref) || !is_finite(measured)) return T(0);
-    ref = clamp(ref, T(0), mech_.g);  // a reference past the stroke cannot be reached
+    ref = clamp(ref, T(0), mech().g);  // a reference past the stroke cannot be reached
     switch (mode_) {
       case Mode::OpenLoop: return v_open_;
       case Mode::Pid:
@@ -159,10 +162,8 @@ class Controller {
   }
 
   ControllerConfig cfg_;
-  Mechanics<T> mech_;
   InverseModel<T> inverse_;
   Pid<T> pid_;
-  WireStep<T> wire_step_;
   T T_wire_;
   T eps_meas_ = T(0);  // austenite fraction of the last measurement
   T v_max_;

@@ -149,6 +149,8 @@ class InverseModel {
   const Hysteresis<T>& memory() const { return memory_; }
   const Thermal<T>& thermal() const { return thermal_; }
   const PhaseCurves<T>& curves() const { return curves_; }
+  const Mechanics<T>& mechanics() const { return mech_; }
+  const WireStep<T>& wire_step() const { return wire_step_; }
 
   InverseModel(const InverseModel&) = delete;  // memory_ points into curves_
   InverseModel& operator=(const InverseModel&) = delete;

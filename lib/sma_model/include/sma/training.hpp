@@ -54,8 +54,10 @@ struct TrainingPlan {
     return nullptr;
   }
 
+  // Length of the rise to peak k (the descent is as long), given 1 / slope.
+  double rise_s(uint8_t k, double inv_slope) const { return (peaks[k] - floor_V) * inv_slope; }
   // Length of one ramp cycle for peak k (up, down, hold).
-  double cycle_s(uint8_t k) const { return 2.0 * (peaks[k] - floor_V) / slope + hold_s; }
+  double cycle_s(uint8_t k) const { return 2.0 * rise_s(k, 1.0 / slope) + hold_s; }
 
   double duration() const {
     double t = hold_s;
@@ -68,12 +70,15 @@ struct TrainingPlan {
     if (!(t >= 0.0)) return floor_V;
     if (t < hold_s) return floor_V;
     t -= hold_s;
+    // One division per call, not two per peak: the firmware plays this every tick (~500 AVR
+    // cycles a division).
+    const double inv_slope = 1.0 / slope;
     for (uint8_t k = 0; k < n_peaks; ++k) {
-      const double rise = (peaks[k] - floor_V) / slope;
+      const double rise = rise_s(k, inv_slope);
       if (t < rise) return floor_V + slope * t;
       if (t < 2.0 * rise) return peaks[k] - slope * (t - rise);
-      if (t < 2.0 * rise + hold_s) return floor_V;
-      t -= cycle_s(k);
+      t -= 2.0 * rise + hold_s;  // cycle_s(k)
+      if (t < 0.0) return floor_V;
     }
     if (t >= 0.0 && t < n_probes * probe_s) {
       const uint8_t k = static_cast<uint8_t>(t / probe_s);
