@@ -50,10 +50,8 @@ class Controller {
  public:
   Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg)
       : cfg_(cfg),
-        mech_(p, fx),
         inverse_(p, fx, with_dt(cfg.inverse, cfg.dt, cfg.v_max)),
         pid_(cfg.gains, cfg.dt),
-        wire_step_(inverse_.thermal(), p, cfg.dt, fx),
         T_wire_(from_double<T>(p.T_amb + fx.ambient_offset_K)),
         v_max_(from_double<T>(cfg.v_max)),
         valid_(p.check() == nullptr && fx.check() == nullptr && cfg.check() == nullptr) {}
@@ -69,7 +67,7 @@ class Controller {
     if (m == mode_ || !valid_) return;
     const bool ff = m == Mode::Feedforward || m == Mode::FeedforwardPid;
     const bool had_ff = mode_ == Mode::Feedforward || mode_ == Mode::FeedforwardPid;
-    if (ff && !had_ff) inverse_.reset(T_wire_, mech_.fraction(measurement, T_wire_));
+    if (ff && !had_ff) inverse_.reset(T_wire_, inverse_.mechanics().fraction(measurement, T_wire_));
     if (m == Mode::Pid || m == Mode::FeedforwardPid) {
       const T v1 = (m == Mode::FeedforwardPid) ? v1_ : T(0);
       pid_.start(measurement, T(0), v_ - v1);
@@ -94,9 +92,9 @@ class Controller {
     // estimate); latent heat is left out of the estimate (d(eps)/dt of a noisy measurement
     // would be all noise).
     // (Eq 1 of the paper does not need it: skip the work.)
-    if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? mech_.fraction(measured, T_wire_) : T(0);
+    if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? inverse_.mechanics().fraction(measured, T_wire_) : T(0);
     v_ = compute(ref, measured);
-    T_wire_ = wire_step_(T_wire_, v_, eps_meas_);
+    T_wire_ = inverse_.wire_step()(T_wire_, v_, eps_meas_);
     return v_;
   }
 
@@ -127,17 +125,17 @@ class Controller {
     v1_ = T(0);
     v2_ = T(0);
     if (!is_finite(ref) || !is_finite(measured)) return T(0);
-    ref = clamp(ref, T(0), mech_.g);  // a reference past the stroke cannot be reached
+    ref = clamp(ref, T(0), inverse_.mechanics().g);  // a reference past the stroke cannot be reached
     switch (mode_) {
       case Mode::OpenLoop: return v_open_;
       case Mode::Pid:
         v2_ = pid_.step(ref - measured, measured, T(0), v_max_);
         break;
       case Mode::Feedforward:
-        v1_ = min(inverse_.step(ref), v_max_);
+        v1_ = inverse_.step(ref);  // 0..V_max: the inverse has the same V_max (with_dt)
         break;
       case Mode::FeedforwardPid: {
-        v1_ = min(inverse_.step(ref), v_max_);
+        v1_ = inverse_.step(ref);
         // PID limits: V1 + V2 inside 0..V_max (eq 18; the anti-windup sees the clamp), and
         // never against the branch the reference is on. While it heats, the PID may slow the
         // heating but not cool the wire: cooling opens a minor loop whose rise (eqs 5-6) moves
@@ -154,15 +152,14 @@ class Controller {
       }
       default: return T(0);
     }
-    const T v = clamp(v1_ + v2_, T(0), v_max_);
-    return is_finite(v) ? v : T(0);
+    return clamp(v1_ + v2_, T(0), v_max_);  // NaN -> 0 V (clamp maps it to lo)
   }
 
   ControllerConfig cfg_;
-  Mechanics<T> mech_;
+  // Eq 12 and the wire's tick are the inverse model's (the same parameters, effects and dt):
+  // one copy in RAM.
   InverseModel<T> inverse_;
   Pid<T> pid_;
-  WireStep<T> wire_step_;
   T T_wire_;
   T eps_meas_ = T(0);  // austenite fraction of the last measurement
   T v_max_;

@@ -43,14 +43,10 @@ class PhaseCurves {
  public:
   explicit PhaseCurves(const Params& p)
       : T_AS_(from_double<T>(p.T_AS)),
-        T_AF_(from_double<T>(p.T_AF)),
         T_MF_(from_double<T>(p.T_MF)),
         width_A_(from_double<T>(p.T_AF - p.T_AS)),
         inv_width_A_(from_double<T>(1.0 / (p.T_AF - p.T_AS))),
-        T_s_(from_double<T>(p.T_s)),
-        T_f_(from_double<T>(p.T_f)),
         inv_width_sf_(from_double<T>(1.0 / (p.T_f - p.T_s))),
-        T_MSs_(from_double<T>(p.T_MSs)),
         T_MSf_(from_double<T>(p.T_MSf)),
         q_(from_double<T>(p.q)),
         e_(from_double<T>(p.e)),
@@ -58,13 +54,18 @@ class PhaseCurves {
 #if SMA_REHEAT_READINGS
     every_peak_ = p.reheat == Reheat::new_loop;
 #endif
-    for (uint8_t k = 0; k < 6; ++k) m_[k] = from_double<T>(p.m[k]);
+    // Eq 8's coefficients times eq 7's T_MSs - T_MSf: a reversal adds the polynomial to T_MSf.
+    for (uint8_t k = 0; k < 6; ++k) m_[k] = from_double<T>(p.m[k] * (p.T_MSs - p.T_MSf));
     // Knots of the piecewise-linear j(T_i) and span(T_i) = T_i - T_ii: zero at T_s and T_f.
     set_knot(0, p.T_s, 0.0, 0.0);
     for (uint8_t k = 0; k < p.n_loops; ++k)
       set_knot(static_cast<uint8_t>(k + 1), p.loops[k].T_i, p.loops[k].T_i - p.loops[k].T_ii,
                p.loops[k].j);
     set_knot(static_cast<uint8_t>(p.n_loops + 1), p.T_f, 0.0, 0.0);
+    // 1 / width of each segment: a reversal interpolates without dividing. An empty or
+    // reversed segment is never entered (rise_at), whatever its reciprocal.
+    for (uint8_t k = 0; k + 1 < n_knots_; ++k)
+      knot_inv_width_[k] = T(1) / (knot_T_[k + 1] - knot_T_[k]);
   }
 
   // Eq 2: austenite fraction on the major heating curve.
@@ -133,7 +134,7 @@ class PhaseCurves {
   }
 
   T T_AS() const { return T_AS_; }
-  T T_AF() const { return T_AF_; }
+  T T_AF() const { return T_AS_ + width_A_; }
   T T_MF() const { return T_MF_; }
 
   // Reheat::new_loop: a peak opens a loop even when the heating before it transformed nothing.
@@ -146,10 +147,10 @@ class PhaseCurves {
  private:
   // Eqs 7-10; eh_i: eps_heat(T_i) when known.
   T martensite_start(T T_i, bool known, T eh_i) const {
-    if (T_i > T_s_ && T_i < T_f_) {
-      const T nt = (T_i - T_s_) * inv_width_sf_;                                   // eq 9
-      const T n = ((((m_[5] * nt + m_[4]) * nt + m_[3]) * nt + m_[2]) * nt + m_[1]) * nt + m_[0];  // eq 8
-      return T_MSf_ + n * (T_MSs_ - T_MSf_);                                       // eq 7
+    if (T_i > knot_T_[0] && T_i < knot_T_[n_knots_ - 1]) {  // T_s < T_i < T_f
+      const T nt = (T_i - knot_T_[0]) * inv_width_sf_;                                  // eq 9
+      // Eqs 8 and 7: T_MSf + (T_MSs - T_MSf) n(nt), the difference folded into m_.
+      return T_MSf_ + ((((m_[5] * nt + m_[4]) * nt + m_[3]) * nt + m_[2]) * nt + m_[1]) * nt + m_[0];
     }
     return q_ * (known ? eh_i : eps_heat(T_i)) + e_;  // eq 10
   }
@@ -165,7 +166,7 @@ class PhaseCurves {
     span = T(0);
     for (uint8_t k = 0; k + 1 < n_knots_; ++k) {
       if (T_i >= knot_T_[k] && T_i < knot_T_[k + 1]) {
-        const T w = (T_i - knot_T_[k]) / (knot_T_[k + 1] - knot_T_[k]);
+        const T w = (T_i - knot_T_[k]) * knot_inv_width_[k];
         j = knot_j_[k] + w * (knot_j_[k + 1] - knot_j_[k]);
         span = knot_span_[k] + w * (knot_span_[k + 1] - knot_span_[k]);
         return;
@@ -173,9 +174,9 @@ class PhaseCurves {
     }
   }
 
-  T T_AS_, T_AF_, T_MF_, width_A_, inv_width_A_;
-  T T_s_, T_f_, inv_width_sf_, T_MSs_, T_MSf_;
-  T m_[6];
+  T T_AS_, T_MF_, width_A_, inv_width_A_;
+  T inv_width_sf_, T_MSf_;  // T_s, T_f: the first and last knot
+  T m_[6];                  // eq 8's m_k (T_MSs - T_MSf)
   T q_, e_;
   uint8_t n_knots_;
 #if SMA_REHEAT_READINGS
@@ -184,6 +185,7 @@ class PhaseCurves {
   T knot_T_[kMaxLoopKnots + 2];
   T knot_span_[kMaxLoopKnots + 2];
   T knot_j_[kMaxLoopKnots + 2];
+  T knot_inv_width_[kMaxLoopKnots + 1];
 };
 
 // The rate-independent state machine over the temperature path.

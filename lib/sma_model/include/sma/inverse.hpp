@@ -148,6 +148,9 @@ class InverseModel {
   bool heating() const { return heating_; }
   const Hysteresis<T>& memory() const { return memory_; }
   const Thermal<T>& thermal() const { return thermal_; }
+  const Mechanics<T>& mechanics() const { return mech_; }
+  // Eq 1 over one tick (the controller's temperature estimate uses the same).
+  const WireStep<T>& wire_step() const { return wire_step_; }
   const PhaseCurves<T>& curves() const { return curves_; }
 
   InverseModel(const InverseModel&) = delete;  // memory_ points into curves_

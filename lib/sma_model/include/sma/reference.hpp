@@ -77,6 +77,7 @@ class ReferenceGen {
   explicit ReferenceGen(const Reference& r) : r_(r) {
     lo_ = from_double<T>(r.sine_lo_mm);
     span_ = from_double<T>(r.sine_hi_mm - r.sine_lo_mm);
+    inv_period_ = 1.0 / r.sine_period_s;
   }
 
   // Reference at t seconds (t >= 0).
@@ -90,7 +91,7 @@ class ReferenceGen {
       }
       case RefKind::Sine: {
         // Phase reduced to [0, 1) in double (float on AVR) so T never sees a large angle.
-        const double cycles = t / r_.sine_period_s;
+        const double cycles = t * inv_period_;  // no division in the tick
         const T phase = from_double<T>(cycles - static_cast<double>(static_cast<long>(cycles)));
         // lo + span (1 - cos 2 pi phase) / 2 = lo + span cos_ramp(x), x = 2 phase folded to
         // [0, 1]: the phase curves' shape (scalar.hpp), so the image carries one cosine.
@@ -118,6 +119,7 @@ class ReferenceGen {
  private:
   Reference r_;
   T lo_, span_;
+  double inv_period_;  // 1 / sine_period_s
 };
 
 }  // namespace sma
