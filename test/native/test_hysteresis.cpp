@@ -221,6 +221,46 @@ TEST(Hysteresis, KnownFractionAndPreparedLoopWalkTheSamePath) {
   EXPECT_GE(reversals_checked, 7);
 }
 
+// The inverse's route on a reversal tick: the loop's shape only (prepare_cooling_shape, its two
+// rates left pending), inverted by eq 16; the memory must still walk the path update(Tw) alone
+// gives, and every loop it reads must have the rates make_loop computes (float, as on the Uno).
+TEST(Hysteresis, ShapeOnlyReversalWalksTheSamePathWithTheSameLoop) {
+  const sma::PhaseCurves<float> curves(kP);
+  sma::Hysteresis<float> plain(curves, 22.0f), hinted(curves, 22.0f);
+  const float path[] = {40, 64, 50, 66, 45, 66.5f, 62, 70, 55, 72, 30, 80, 61, 90, 22};
+  float T = 22.0f;
+  int reversals = 0;
+  for (float to : path) {
+    const float s = to > T ? 0.25f : -0.25f;
+    while ((to - T) * s > 0) {
+      T = fabsf(to - T) < 0.25f ? to : T + s;
+      const float eps = plain.update(T);
+      if (s > 0) {
+        hinted.update(T, curves.eps_heat(T));
+      } else {
+        const bool reversal = hinted.heating();
+        const sma::CoolingLoop<float> full = hinted.loop_for_cooling();
+        const sma::CoolingLoop<float>& L = hinted.prepare_cooling_shape();
+        ASSERT_EQ(L.T_MSi, full.T_MSi);
+        ASSERT_EQ(L.top, full.top);
+        ASSERT_EQ(L.inv_top, full.inv_top);
+        ASSERT_EQ(curves.has_cooling_stage(L), full.inv_cool > 0.0f);
+        // The inverse's eq 16 on the shape, then the memory told that fraction.
+        const float e = curves.eps_cool(full, T);
+        reversals += reversal;
+        if (e > 0.0f && e < L.top) hinted.update(T, e);
+        else hinted.update(T);
+      }
+      ASSERT_NEAR(hinted.eps(), eps, 1e-6f) << "at T = " << T;
+      const sma::CoolingLoop<float> a = hinted.loop(), b = plain.loop();
+      ASSERT_EQ(a.rise_rate, b.rise_rate) << "at T = " << T;
+      ASSERT_EQ(a.inv_cool, b.inv_cool) << "at T = " << T;
+      ASSERT_EQ(a.T_ii, b.T_ii) << "at T = " << T;
+    }
+  }
+  EXPECT_GE(reversals, 7);
+}
+
 // float's own cos_ramp_inv (a polynomial, scalar.hpp) against double acos: within 1e-6 of the
 // normalised result, monotone, exact at the ends and the middle.
 TEST(Hysteresis, FloatCosRampInvMatchesDouble) {

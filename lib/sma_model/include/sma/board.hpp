@@ -306,9 +306,9 @@ class Board {
   // Effective volts -> PWM counts n of duty (V / V_supply)^2, n / (TOP + 1); below one count: 0.
   static uint16_t pwm_counts(float v) {
     const float top1 = static_cast<float>(Rig::pwm_top() + 1UL);
-    float duty = v * static_cast<float>(1.0 / Rig::v_supply());  // (a division: ~500 cycles)
-    duty = duty * duty;
-    float nf = duty * top1 + 0.5f;
+    // (TOP + 1) / V_supply^2 folds at compile time: no division in the tick.
+    const float nf_per_v2 = static_cast<float>((Rig::pwm_top() + 1.0) / (Rig::v_supply() * Rig::v_supply()));
+    float nf = v * v * nf_per_v2 + 0.5f;
     if (!(nf >= 1.0f)) nf = 0.0f;  // also NaN
     if (nf > top1) nf = top1;
     return static_cast<uint16_t>(nf);

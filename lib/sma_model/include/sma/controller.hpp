@@ -67,7 +67,7 @@ class Controller {
     if (m == mode_ || !valid_) return;
     const bool ff = m == Mode::Feedforward || m == Mode::FeedforwardPid;
     const bool had_ff = mode_ == Mode::Feedforward || mode_ == Mode::FeedforwardPid;
-    if (ff && !had_ff) inverse_.reset(T_wire_, mech().fraction(measurement, T_wire_));
+    if (ff && !had_ff) inverse_.reset(T_wire_, inverse_.mechanics().fraction(measurement, T_wire_));
     if (m == Mode::Pid || m == Mode::FeedforwardPid) {
       const T v1 = (m == Mode::FeedforwardPid) ? v1_ : T(0);
       pid_.start(measurement, T(0), v_ - v1);
@@ -92,9 +92,9 @@ class Controller {
     // estimate); latent heat is left out of the estimate (d(eps)/dt of a noisy measurement
     // would be all noise).
     // (Eq 1 of the paper does not need it: skip the work.)
-    if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? mech().fraction(measured, T_wire_) : T(0);
+    if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? inverse_.mechanics().fraction(measured, T_wire_) : T(0);
     v_ = compute(ref, measured);
-    T_wire_ = wire_step()(T_wire_, v_, eps_meas_);
+    T_wire_ = inverse_.wire_step()(T_wire_, v_, eps_meas_);
     return v_;
   }
 
@@ -112,11 +112,6 @@ class Controller {
   const InverseModel<T>& inverse() const { return inverse_; }
 
  private:
-  // The inverse model's eq 12 and wire step (the same dt and effects): built once, not twice
-  // (flash and RAM on the Uno).
-  const Mechanics<T>& mech() const { return inverse_.mechanics(); }
-  const WireStep<T>& wire_step() const { return inverse_.wire_step(); }
-
   static InverseConfig with_dt(InverseConfig c, double dt, double v_max) {
     c.dt = dt;
     c.v_max = v_max;
@@ -130,17 +125,17 @@ class Controller {
     v1_ = T(0);
     v2_ = T(0);
     if (!is_finite(ref) || !is_finite(measured)) return T(0);
-    ref = clamp(ref, T(0), mech().g);  // a reference past the stroke cannot be reached
+    ref = clamp(ref, T(0), inverse_.mechanics().g);  // a reference past the stroke cannot be reached
     switch (mode_) {
       case Mode::OpenLoop: return v_open_;
       case Mode::Pid:
         v2_ = pid_.step(ref - measured, measured, T(0), v_max_);
         break;
       case Mode::Feedforward:
-        v1_ = min(inverse_.step(ref), v_max_);
+        v1_ = inverse_.step(ref);  // 0..V_max: the inverse has the same V_max (with_dt)
         break;
       case Mode::FeedforwardPid: {
-        v1_ = min(inverse_.step(ref), v_max_);
+        v1_ = inverse_.step(ref);
         // PID limits: V1 + V2 inside 0..V_max (eq 18; the anti-windup sees the clamp), and
         // never against the branch the reference is on. While it heats, the PID may slow the
         // heating but not cool the wire: cooling opens a minor loop whose rise (eqs 5-6) moves
@@ -157,11 +152,12 @@ class Controller {
       }
       default: return T(0);
     }
-    const T v = clamp(v1_ + v2_, T(0), v_max_);
-    return is_finite(v) ? v : T(0);
+    return clamp(v1_ + v2_, T(0), v_max_);  // NaN -> 0 V (clamp maps it to lo)
   }
 
   ControllerConfig cfg_;
+  // Eq 12 and the wire's tick are the inverse model's (the same parameters, effects and dt):
+  // one copy in RAM.
   InverseModel<T> inverse_;
   Pid<T> pid_;
   T T_wire_;

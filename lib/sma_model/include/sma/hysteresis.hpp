@@ -43,14 +43,10 @@ class PhaseCurves {
  public:
   explicit PhaseCurves(const Params& p)
       : T_AS_(from_double<T>(p.T_AS)),
-        T_AF_(from_double<T>(p.T_AF)),
         T_MF_(from_double<T>(p.T_MF)),
         width_A_(from_double<T>(p.T_AF - p.T_AS)),
         inv_width_A_(from_double<T>(1.0 / (p.T_AF - p.T_AS))),
-        T_s_(from_double<T>(p.T_s)),
-        T_f_(from_double<T>(p.T_f)),
         inv_width_sf_(from_double<T>(1.0 / (p.T_f - p.T_s))),
-        T_MSs_(from_double<T>(p.T_MSs)),
         T_MSf_(from_double<T>(p.T_MSf)),
         q_(from_double<T>(p.q)),
         e_(from_double<T>(p.e)),
@@ -58,13 +54,18 @@ class PhaseCurves {
 #if SMA_REHEAT_READINGS
     every_peak_ = p.reheat == Reheat::new_loop;
 #endif
-    for (uint8_t k = 0; k < 6; ++k) m_[k] = from_double<T>(p.m[k]);
+    // Eq 8's coefficients times eq 7's T_MSs - T_MSf: a reversal adds the polynomial to T_MSf.
+    for (uint8_t k = 0; k < 6; ++k) m_[k] = from_double<T>(p.m[k] * (p.T_MSs - p.T_MSf));
     // Knots of the piecewise-linear j(T_i) and span(T_i) = T_i - T_ii: zero at T_s and T_f.
     set_knot(0, p.T_s, 0.0, 0.0);
     for (uint8_t k = 0; k < p.n_loops; ++k)
       set_knot(static_cast<uint8_t>(k + 1), p.loops[k].T_i, p.loops[k].T_i - p.loops[k].T_ii,
                p.loops[k].j);
     set_knot(static_cast<uint8_t>(p.n_loops + 1), p.T_f, 0.0, 0.0);
+    // 1 / width of each segment: a reversal interpolates without dividing. An empty or
+    // reversed segment is never entered (rise_at), whatever its reciprocal.
+    for (uint8_t k = 0; k + 1 < n_knots_; ++k)
+      knot_inv_width_[k] = T(1) / (knot_T_[k + 1] - knot_T_[k]);
   }
 
   // Eq 2: austenite fraction on the major heating curve.
@@ -80,6 +81,17 @@ class PhaseCurves {
   // heating curve's fraction at T_i (a peak of a transforming heating), which eq 10 then uses
   // instead of evaluating the curve again.
   CoolingLoop<T> make_loop(T T_i, T eps_i, bool on_major = false) const {
+    CoolingLoop<T> L = start_loop(T_i, eps_i, on_major);
+    finish_loop(L);
+    return L;
+  }
+
+  // make_loop in two parts, so that a reversal tick need not pay for all of it. start_loop
+  // gives the loop's shape (T_i, eps_i, T_ii, top, T_MSi, inv_top: enough for eq 16,
+  // cool_temperature and has_cooling_stage) and leaves its two rates pending: rise_rate holds
+  // the rise's span T_i - T_ii and inv_cool the cooling width T_MSi - T_MF until finish_loop
+  // divides (the same numbers make_loop gives, computed later).
+  CoolingLoop<T> start_loop(T T_i, T eps_i, bool on_major) const {
     CoolingLoop<T> L;
     L.T_i = T_i;
     L.eps_i = eps_i;
@@ -87,20 +99,23 @@ class PhaseCurves {
     rise_at(T_i, j, span);
     L.top = min(eps_i + j, T(1));  // eps never exceeds 1
     // A span below 1 mK is a step: the rise happens at once (and 1/span would overflow).
-    if (span > T(0.001)) {
-      L.T_ii = T_i - span;
-      L.rise_rate = (L.top - eps_i) / span;
-    } else {
-      L.T_ii = T_i;
-      L.rise_rate = T(0);
-    }
+    L.T_ii = span > T(0.001) ? T_i - span : T_i;
+    L.rise_rate = span;  // pending
     // Clamp T_MSi to [T_MF, T_ii] (model.md): the flat stage cannot start above its own end.
     L.T_MSi = clamp(martensite_start(T_i, on_major, eps_i), T_MF_, L.T_ii);
-    const T cool_width = L.T_MSi - T_MF_;
-    L.inv_cool = cool_width > T(0.001) ? T(1) / cool_width : T(0);
+    L.inv_cool = L.T_MSi - T_MF_;  // pending
     L.inv_top = L.top > T(0) ? T(1) / L.top : T(0);
     return L;
   }
+  // The rates of a loop from start_loop: j_i / (T_i - T_ii) (eq 6) and 1 / (T_MSi - T_MF) (eq 11).
+  void finish_loop(CoolingLoop<T>& L) const {
+    const T span = L.rise_rate, cool_width = L.inv_cool;
+    // A span below 1 mK is a step: the rise happens at once (and 1/span would overflow).
+    L.rise_rate = span > T(0.001) ? (L.top - L.eps_i) / span : T(0);
+    L.inv_cool = cool_width > T(0.001) ? T(1) / cool_width : T(0);
+  }
+  // Eq 11 has a cooling stage to invert (its width is above 1 mK): pending or finished loop.
+  bool has_cooling_stage(const CoolingLoop<T>& L) const { return L.T_MSi - T_MF_ > T(0.001); }
 
   // Eqs 5, 6, 11: the fraction on a loop's cooling branch at temperature Tw <= T_i.
   T eps_cool(const CoolingLoop<T>& L, T Tw) const {
@@ -133,7 +148,7 @@ class PhaseCurves {
   }
 
   T T_AS() const { return T_AS_; }
-  T T_AF() const { return T_AF_; }
+  T T_AF() const { return T_AS_ + width_A_; }
   T T_MF() const { return T_MF_; }
 
   // Reheat::new_loop: a peak opens a loop even when the heating before it transformed nothing.
@@ -146,10 +161,10 @@ class PhaseCurves {
  private:
   // Eqs 7-10; eh_i: eps_heat(T_i) when known.
   T martensite_start(T T_i, bool known, T eh_i) const {
-    if (T_i > T_s_ && T_i < T_f_) {
-      const T nt = (T_i - T_s_) * inv_width_sf_;                                   // eq 9
-      const T n = ((((m_[5] * nt + m_[4]) * nt + m_[3]) * nt + m_[2]) * nt + m_[1]) * nt + m_[0];  // eq 8
-      return T_MSf_ + n * (T_MSs_ - T_MSf_);                                       // eq 7
+    if (T_i > knot_T_[0] && T_i < knot_T_[n_knots_ - 1]) {  // T_s < T_i < T_f
+      const T nt = (T_i - knot_T_[0]) * inv_width_sf_;                                  // eq 9
+      // Eqs 8 and 7: T_MSf + (T_MSs - T_MSf) n(nt), the difference folded into m_.
+      return T_MSf_ + ((((m_[5] * nt + m_[4]) * nt + m_[3]) * nt + m_[2]) * nt + m_[1]) * nt + m_[0];
     }
     return q_ * (known ? eh_i : eps_heat(T_i)) + e_;  // eq 10
   }
@@ -165,7 +180,7 @@ class PhaseCurves {
     span = T(0);
     for (uint8_t k = 0; k + 1 < n_knots_; ++k) {
       if (T_i >= knot_T_[k] && T_i < knot_T_[k + 1]) {
-        const T w = (T_i - knot_T_[k]) / (knot_T_[k + 1] - knot_T_[k]);
+        const T w = (T_i - knot_T_[k]) * knot_inv_width_[k];
         j = knot_j_[k] + w * (knot_j_[k + 1] - knot_j_[k]);
         span = knot_span_[k] + w * (knot_span_[k + 1] - knot_span_[k]);
         return;
@@ -173,9 +188,9 @@ class PhaseCurves {
     }
   }
 
-  T T_AS_, T_AF_, T_MF_, width_A_, inv_width_A_;
-  T T_s_, T_f_, inv_width_sf_, T_MSs_, T_MSf_;
-  T m_[6];
+  T T_AS_, T_MF_, width_A_, inv_width_A_;
+  T inv_width_sf_, T_MSf_;  // T_s, T_f: the first and last knot
+  T m_[6];                  // eq 8's m_k (T_MSs - T_MSf)
   T q_, e_;
   uint8_t n_knots_;
 #if SMA_REHEAT_READINGS
@@ -184,6 +199,7 @@ class PhaseCurves {
   T knot_T_[kMaxLoopKnots + 2];
   T knot_span_[kMaxLoopKnots + 2];
   T knot_j_[kMaxLoopKnots + 2];
+  T knot_inv_width_[kMaxLoopKnots + 1];
 };
 
 // The rate-independent state machine over the temperature path.
@@ -196,13 +212,14 @@ class Hysteresis {
     reset(T0, eps0);
   }
 
-  void reset(T T0, T eps0 = T(0)) {
+  // (Out of line: the controller's constructor and mode change both reset.)
+  __attribute__((noinline)) void reset(T T0, T eps0 = T(0)) {
     eps_ = clamp(eps0, T(0), T(1));
     T_last_ = T0;
     heating_ = false;
     transformed_ = false;
     on_branch_ = true;
-    loop_ = curves_->make_loop(T0, eps_);
+    start_loop(T0, false);
     peak_ready_ = false;
     T_left_ = T0;
   }
@@ -219,7 +236,7 @@ class Hysteresis {
   // lower temperature). The inverse model needs it to invert the branch before walking it.
   CoolingLoop<T> loop_for_cooling() const {
     if (heating_ && opens_loop() && !peak_ready_) return curves_->make_loop(T_last_, eps_, transformed_);
-    return loop_;
+    return loop();
   }
 
   // The same loop, built once: the next update() that cools uses it instead of building it
@@ -227,8 +244,17 @@ class Hysteresis {
   // replaces loop_ here (any heating with Reheat::new_loop), and such a heating replaces it at
   // its peak anyway.
   const CoolingLoop<T>& prepare_cooling() {
+    prepare_cooling_shape();
+    return loop();
+  }
+
+  // The same, but the loop's rates may still be pending (PhaseCurves::start_loop): enough for
+  // eq 16 and has_cooling_stage. The inverse model inverts the branch with it on a reversal tick
+  // and the two divisions of the rates wait until the memory or loop() needs them: the
+  // reversal, the controller's most expensive tick, does not pay for them.
+  const CoolingLoop<T>& prepare_cooling_shape() {
     if (heating_ && opens_loop() && !peak_ready_) {
-      loop_ = curves_->make_loop(T_last_, eps_, transformed_);
+      start_loop(T_last_, transformed_);
       peak_ready_ = true;
     }
     return loop_;
@@ -237,7 +263,10 @@ class Hysteresis {
   T eps() const { return eps_; }
   T temperature() const { return T_last_; }
   bool heating() const { return heating_; }
-  const CoolingLoop<T>& loop() const { return loop_; }
+  const CoolingLoop<T>& loop() const {
+    finish_loop();
+    return loop_;
+  }
   const PhaseCurves<T>& curves() const { return *curves_; }
 
  private:
@@ -259,18 +288,32 @@ class Hysteresis {
       if (heating_) {  // peak
         heating_ = false;
         if (opens_loop()) {  // a new minor loop (eqs 5-11)
-          if (!peak_ready_) loop_ = curves_->make_loop(T_last_, eps_, transformed_);
+          if (!peak_ready_) start_loop(T_last_, transformed_);
           on_branch_ = true;
         }  // else: return-point memory, resume the old branch below T_left_
       }
       if (!on_branch_ && Tw <= T_left_) on_branch_ = true;
-      if (on_branch_) eps_ = known ? eps_known : curves_->eps_cool(loop_, Tw);
+      if (on_branch_) eps_ = known ? eps_known : curves_->eps_cool(loop(), Tw);
     } else {
       return eps_;  // no move: a loop prepared for this point stays valid
     }
     T_last_ = Tw;
     peak_ready_ = false;
     return eps_;
+  }
+
+  // loop_ := the loop a cooling from (T_i, eps_) starts, its rates pending until used.
+  void start_loop(T T_i, bool on_major) {
+    loop_ = curves_->start_loop(T_i, eps_, on_major);
+    loop_pending_ = true;
+  }
+  // Completes a pending loop_ (a cache: logically const). Out of line: one copy of its two
+  // divisions however many callers read the loop (flash on the Uno).
+  __attribute__((noinline)) void finish_loop() const {
+    if (loop_pending_) {
+      curves_->finish_loop(loop_);
+      loop_pending_ = false;
+    }
   }
 
   // Does a reversal now open a new loop? After a transforming heating always; after any
@@ -284,8 +327,9 @@ class Hysteresis {
   bool transformed_;  // this heating has moved eps along the major curve
   bool on_branch_;    // cooling follows loop_ (else flat, waiting to fall to T_left_)
   bool peak_ready_;   // loop_ already is the loop of a cooling from (T_last_, eps_)
-  CoolingLoop<T> loop_;
+  mutable CoolingLoop<T> loop_;
   T T_left_;          // where the path left loop_'s branch
+  mutable bool loop_pending_;  // loop_'s rates not divided yet (prepare_cooling_shape)
 };
 
 }  // namespace sma

@@ -107,7 +107,8 @@ class InverseModel {
       on_curve = T_new > T_d_;
       T_new = max(T_new, T_d_);
     } else {
-      const CoolingLoop<T>& loop = memory_.prepare_cooling();
+      // Eq 16 needs only the loop's shape: its rates wait (prepare_cooling_shape).
+      const CoolingLoop<T>& loop = memory_.prepare_cooling_shape();
       T_new = curves_.cool_temperature(loop, e);  // eq 16, this loop's T_MSi
       if (expands)
         for (int i = 0; i < kExpansionSteps; ++i) {
@@ -115,7 +116,7 @@ class InverseModel {
           T_new = curves_.cool_temperature(loop, e);
         }
       // Eq 16 inverts eq 11 only strictly inside the cooling stage.
-      on_curve = T_new < T_d_ && e > T(0) && e < loop.top && loop.inv_cool > T(0);
+      on_curve = T_new < T_d_ && e > T(0) && e < loop.top && curves_.has_cooling_stage(loop);
       T_new = min(T_new, T_d_);
     }
     if (on_curve) memory_.update(T_new, e);
@@ -148,9 +149,10 @@ class InverseModel {
   bool heating() const { return heating_; }
   const Hysteresis<T>& memory() const { return memory_; }
   const Thermal<T>& thermal() const { return thermal_; }
-  const PhaseCurves<T>& curves() const { return curves_; }
   const Mechanics<T>& mechanics() const { return mech_; }
+  // Eq 1 over one tick (the controller's temperature estimate uses the same).
   const WireStep<T>& wire_step() const { return wire_step_; }
+  const PhaseCurves<T>& curves() const { return curves_; }
 
   InverseModel(const InverseModel&) = delete;  // memory_ points into curves_
   InverseModel& operator=(const InverseModel&) = delete;
