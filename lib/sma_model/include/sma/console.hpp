@@ -36,7 +36,7 @@
 // effects as <effect>.<param> (sensor_delay.delay_s, ...). A value out of the key's range gets
 // `ERR <key>: value out of range lo..hi`; a set check() refuses at pcommit gets `ERR <key>: <why>`
 // with storage::CheckValidator (host), `ERR pcommit: <why>` with a validator that gives no key
-// (the firmware's: reading check()'s messages on AVR would keep them in RAM).
+// (the firmware's, which checks the whole model it builds, not one key).
 // An effect's parameter alone is accepted as its key too (beta_per_K): a long key and a precise
 // value must fit 47 characters. The model commands only parse here: the firmware runs them on
 // its EEPROM with model_command(). train and the model commands exist where Limits::train /
