@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
     bool all = d.effects.size() == c.hidden.size();
     for (const FittedEffect& e : d.effects) {
       char buf[96];
-      std::snprintf(buf, sizeof buf, e.spec->n > 1 ? "%s(%.3g, %.3g)" : "%s(%.3g)", e.spec->name, e.value[0], e.value[1]);
+      std::snprintf(buf, sizeof buf, e.spec->n > 1 ? "%s(%.3g, %.3g)" : "%s(%.3g)", e.spec->name.c_str(), e.value[0], e.value[1]);
       named += (named.empty() ? "" : " + ") + std::string(buf);
       bool in = false;
       for (const std::string& h : c.hidden) in = in || h == e.spec->name;
