@@ -189,14 +189,22 @@ struct Output {
   std::string line;
   long rows = 0;
 
+  // Five fields, none empty (a line cut off by the end of the run is not a row).
   static bool is_row(const std::string& s) {
-    if (s.empty()) return false;
     int commas = 0;
+    bool digit = false;
     for (char c : s) {
-      if (c == ',') ++commas;
-      else if (!(isdigit((unsigned char)c) || c == '.' || c == '-')) return false;
+      if (c == ',') {
+        if (!digit) return false;
+        ++commas;
+        digit = false;
+      } else if (isdigit((unsigned char)c)) {
+        digit = true;
+      } else if (c != '.' && c != '-') {
+        return false;
+      }
     }
-    return commas == 4;
+    return commas == 4 && digit;
   }
   void complete(double t) {
     if (!opt->quiet) {
@@ -622,7 +630,12 @@ int run_avr(Rig& rig) {
   }
   // (No uart_pty_stop(): in simavr 1.6 it signals the pty thread and joins a loop that does not
   // end; the thread ends with the process.)
-  if (!rig.out.line.empty()) rig.out.complete(rig.now());
+  // A line the run's end cut off: shown, never logged as a row (is_row would refuse most, not
+  // one that ends inside its last number).
+  if (!rig.out.line.empty()) {
+    if (!rig.opt.quiet) printf("%s\n", rig.out.line.c_str());
+    rig.out.line.clear();
+  }
   {
     // Longest run of paint below RAMEND's stack: the free margin between .bss/heap and stack.
     uint32_t best = 0, run = 0;
