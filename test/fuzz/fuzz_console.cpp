@@ -243,7 +243,6 @@ struct Harness {
       CHECK(starts(reply.text, "OK status "), "status_line does not start with 'OK status '");
     }
     if (ok && c.op == con::Op::Stop) fault = sma::Fault::None;
-    if (ok && c.op == con::Op::Tlim) board_tlim = state.tlim_C;
   }
 
   // The same line through the Board (bytes in), then two ticks.
@@ -254,6 +253,10 @@ struct Harness {
       if (board.model_pending()) board.run_model_op();
       board.poll();
     }
+    // The Board ends a line at '\r' as well as '\n' (a direct-mode line "tlim 80\r" is two
+    // Board lines), so what its latch may follow is its own OK'd tlim, not execute()'s verdict.
+    for (size_t i = 0; (i = board_out.find("OK tlim ", i)) != std::string::npos; ++i)
+      if (i == 0 || board_out[i - 1] == '\n') board_tlim = board.state().tlim_C;
     tick(line);
     tick(line);
     check_board_out(line);
