@@ -11,7 +11,10 @@ Passes when, for every effect, the wire with the effect uploaded moves closer to
 controller moves a wire WITHOUT the effect (RMS difference of the true displacements over the
 period) than the wire without the upload does. (The RMS tracking errors are printed; a sensor
 offset can happen to lower the error of a controller that overshoots while cooling, so the
-tracking error alone is not the criterion.) Standard library only.
+tracking error alone is not the criterion.) Every run first starts the training run (`train`)
+and stops it, so one ELF is shown doing `train`, `pbegin`..`pcommit` and `sine` in one session:
+the replies must be OK, `status` must show the training running and `stop` must end it (heater
+off until the sine). Standard library only.
 """
 import argparse
 import json
@@ -27,35 +30,56 @@ EFFECTS = {
     "sensor_calibration": (["sensor_calibration.gain=1.1", "sensor_calibration.offset_mm=0.03"],
                            ["pset sensor_calibration.gain 1.1", "pset sensor_calibration.offset_mm 0.03"]),
 }
-START = 3.0    # the sine starts here (after the upload)
+TRAIN = (0.2, 2.2)  # the training run: started, then stopped
+START = 5.0    # the sine starts here (after the training and the upload)
 PERIOD = 50.0  # the paper's sine period
 
 
-def run(args, name, effect_args, upload, d):
+def session_problems(name, out, rows, upload):
+    """What the board's replies and telemetry say about train / stop / the upload (list of text)."""
+    replies = [ln.split("] ", 1)[1] for ln in out.splitlines() if ln.startswith("[") and "] " in ln]
+    words = ["train", "stop"] + (["pbegin"] + [u.split()[0] for u in upload] + ["pcommit"] if upload else [])
+    bad = ["%s: the board answered '%s'" % (name, r) for r in replies if r.startswith("ERR")]
+    for w in words:
+        if not any(r.startswith("OK " + w) for r in replies):
+            bad.append("%s: no 'OK %s' from the board" % (name, w))
+    status = [r for r in replies if r.startswith("OK status ")]
+    if len(status) != 2 or " train " not in status[0] + " " or not status[1].startswith("OK status off "):
+        bad.append("%s: status during the training / after stop: %s" % (name, status))
+    after = [v for t, v in rows if TRAIN[1] + 0.05 < t < START - 0.05]
+    if not after or max(after) != 0.0:
+        bad.append("%s: the heater was not off between stop and the sine" % name)
+    return bad
+
+
+def run(args, name, effect_args, upload, d, problems):
     script = os.path.join(d, name + ".txt")
-    lines = []
-    t = 0.2
+    lines = ["0.10 tele on", "%.2f train" % TRAIN[0], "%.2f status" % (TRAIN[0] + 0.8), "%.2f stop" % TRAIN[1],
+             "%.2f status" % (TRAIN[1] + 0.1)]
+    t = TRAIN[1] + 0.3
     if upload:
         for cmd in ["pbegin"] + upload + ["pcommit"]:
             lines.append("%.2f %s" % (t, cmd))
             t += 0.4
-    lines += ["%.2f tele on" % (START - 0.1), "%.2f sine" % START]
+    lines += ["%.2f sine" % START]
     with open(script, "w") as f:
         f.write("\n".join(lines) + "\n")
     log, truth = os.path.join(d, name + ".csv"), os.path.join(d, name + "_truth.csv")
-    cmd = [args.vrig, args.elf, "--script", script, "--duration", "%.1f" % (START + PERIOD), "--quiet",
+    cmd = [args.vrig, args.elf, "--script", script, "--duration", "%.1f" % (START + PERIOD), "--stamp",
            "--log", log, "--truth", truth, "--noise-mm", "0.002"]
     for e in effect_args:
         cmd += ["--effect", e]
     r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if r.returncode != 0:
         raise RuntimeError("%s: vrig exit %d: %s" % (name, r.returncode, r.stderr[-300:]))
-    ref = {}
+    ref, rows = {}, []
     with open(log) as f:
         for ln in f:
             p = ln.strip().split(",")
             if len(p) == 5 and p[0][:1].isdigit():
                 ref[round(float(p[0]), 2)] = float(p[3])
+                rows.append((float(p[0]), float(p[1])))
+    problems += session_problems(name, r.stdout, rows, upload)
     err_h, err_c = [], []
     prev = None
     with open(truth) as f:
@@ -89,7 +113,7 @@ def main():
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     res, fails = {}, []
-    base = run(a, "none", [], None, a.out)
+    base = run(a, "none", [], None, a.out, fails)
     res["none"] = base
 
     def dev(x):  # RMS difference from the wire without the effect, mm
@@ -100,8 +124,8 @@ def main():
             print("fil_effects: unknown effect %s (known: %s)" % (name, ", ".join(EFFECTS)), file=sys.stderr)
             return 2
         fx, pset = EFFECTS[name]
-        known = run(a, name + "_uploaded", fx, pset, a.out)
-        unknown = run(a, name + "_not_uploaded", fx, None, a.out)
+        known = run(a, name + "_uploaded", fx, pset, a.out, fails)
+        unknown = run(a, name + "_not_uploaded", fx, None, a.out, fails)
         known["dev_from_no_effect_mm"], unknown["dev_from_no_effect_mm"] = dev(known), dev(unknown)
         res[name] = {"uploaded": known, "not_uploaded": unknown}
         if not known["dev_from_no_effect_mm"] < unknown["dev_from_no_effect_mm"]:
