@@ -86,16 +86,17 @@ int main(int argc, char** argv) {
               "with their transitions, then the paper-style partial figures (labelled). Preview rows: "
               "kp = track_s, ki = offset_tau_s, kd = cool_weight.\n\n", sma_host::objective_name(objective));
   std::printf("| test | condition | controller | scalar | kp | ki | kd | max mm | RMS mm | max rise mm | "
-              "max fall mm | RMS fall mm | wrong-way mm | settle max s | SSE mm | (paper) max heat mm | "
-              "(paper) max cool mm |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+              "max fall mm | RMS fall mm | wrong-way mm (after / before a step) | settle max s | SSE mm | "
+              "(paper) max heat mm | (paper) max cool mm |\n"
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (Row r : rows) {
     if (r.controller == "preview") r.gains = {r.preview.track_s, r.preview.offset_tau_s, r.preview.cool_weight};
-    std::printf("| %s | %s | %s | %s | %.3g | %.3g | %.3g | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.2f | "
-                "%.4f | %.4f | %.4f |\n",
+    std::printf("| %s | %s | %s | %s | %.3g | %.3g | %.3g | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f / %.4f | "
+                "%.2f | %.4f | %.4f | %.4f |\n",
                 r.test.c_str(), r.condition.c_str(), r.controller.c_str(), r.scalar.c_str(), r.gains.kp,
                 r.gains.ki, r.gains.kd, r.m.max_mm, r.m.rms_mm, r.m.max_rise_mm, r.m.max_fall_mm,
-                r.m.rms_fall_mm, r.m.wrong_way_mm, r.m.settle_max_s, r.m.sse_mm, r.m.max_heat_mm,
-                r.m.max_cool_mm);
+                r.m.rms_fall_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm, r.m.settle_max_s, r.m.sse_mm,
+                r.m.max_heat_mm, r.m.max_cool_mm);
   }
   std::printf("\nPlant speed: %.0f simulated s per wall s (paper's model), %.0f (with latent heat, "
               "5 ms sub-steps)\n", speed[0], speed[1]);
@@ -113,12 +114,12 @@ int main(int argc, char** argv) {
                  "    {\"test\": \"%s\", \"condition\": \"%s\", \"controller\": \"%s\", \"scalar\": \"%s\", "
                  "\"kp\": %g, \"ki\": %g, \"kd\": %g, \"max_mm\": %.6f, \"rms_mm\": %.6f, "
                  "\"max_rise_mm\": %.6f, \"rms_rise_mm\": %.6f, \"max_fall_mm\": %.6f, \"rms_fall_mm\": %.6f, "
-                 "\"wrong_way_mm\": %.6f, \"settle_s\": %.3f, \"settle_max_s\": %.3f, \"sse_mm\": %.6f, "
+                 "\"wrong_way_mm\": %.6f, \"wrong_way_before_mm\": %.6f, \"settle_s\": %.3f, \"settle_max_s\": %.3f, \"sse_mm\": %.6f, "
                  "\"max_heat_mm\": %.6f, \"rms_heat_mm\": %.6f, \"max_cool_mm\": %.6f, \"overshoot_pct\": %.3f, \"track_s\": %g, \"offset_tau_s\": %g, "
                  "\"cool_weight\": %g}%s\n",
                  r.test.c_str(), r.condition.c_str(), r.controller.c_str(), r.scalar.c_str(), r.gains.kp,
                  r.gains.ki, r.gains.kd, r.m.max_mm, r.m.rms_mm, r.m.max_rise_mm, r.m.rms_rise_mm,
-                 r.m.max_fall_mm, r.m.rms_fall_mm, r.m.wrong_way_mm, r.m.settle_s, r.m.settle_max_s,
+                 r.m.max_fall_mm, r.m.rms_fall_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm, r.m.settle_s, r.m.settle_max_s,
                  r.m.sse_mm, r.m.max_heat_mm, r.m.rms_heat_mm, r.m.max_cool_mm, r.m.overshoot_pct,
                  r.preview.track_s, r.preview.offset_tau_s, r.preview.cool_weight,
                  i + 1 < rows.size() ? "," : "");

@@ -93,6 +93,36 @@ TEST(Metrics, DownStepWrongWayAndWholeRun) {
   EXPECT_NEAR(m.rms_mm, sqrt((i1 + i2) / 20.0), 2e-3);
 }
 
+// The same down-step, but the wire is cooled early: it takes the 0.08 mm minor-loop rise at
+// t = 6..7 s while 0.8 mm still holds, then falls from the step on. Measured after the step there
+// is no wrong-way move; before it, the position passed the held setpoint by 0.08 mm on the side
+// away from the next one. Leaving early TOWARDS the next setpoint (up before an up-step) is not
+// wrong-way.
+TEST(Metrics, WrongWayBeforeTheStepIsCounted) {
+  std::vector<sma_host::Sample> run;
+  for (int k = 0; k < 2000; ++k) {
+    const double t = 0.01 * k;
+    double y = 0.8;
+    if (t >= 6.0 && t < 7.0) y = 0.8 + 0.08 * (t - 6.0);
+    else if (t >= 7.0 && t < 10.0) y = 0.88;
+    else if (t >= 10.0 && t < 12.0) y = 0.88 - 0.19 * (t - 10.0);
+    else if (t >= 12.0) y = 0.5;
+    run.push_back(at(t, t < 10.0 ? 0.8 : 0.5, y));
+  }
+  const sma_host::Metrics m = sma_host::step_metrics(run, 10.0);
+  EXPECT_NEAR(m.wrong_way_mm, 0.0, 1e-9);
+  EXPECT_NEAR(m.wrong_way_before_mm, 0.08, 1e-3);
+  EXPECT_NEAR(m.max_rise_mm, 0.08, 1e-3);  // the whole-run figures charge it too
+
+  std::vector<sma_host::Sample> up;  // 0.2 then 0.4 mm; the wire leaves 0.2 upwards 2 s early
+  for (int k = 0; k < 2000; ++k) {
+    const double t = 0.01 * k;
+    const double y = t < 8.0 ? 0.2 : t < 10.0 ? 0.2 + 0.1 * (t - 8.0) : 0.4;
+    up.push_back(at(t, t < 10.0 ? 0.2 : 0.4, y));
+  }
+  EXPECT_NEAR(sma_host::step_metrics(up, 10.0).wrong_way_before_mm, 0.0, 1e-9);
+}
+
 // Sine: after each peak the position keeps rising 0.05 mm for 1 s (then jumps back onto the
 // reference); the wrong-way excursion is that rise, counted at every peak after the first period.
 TEST(Metrics, SineWrongWayAfterPeak) {

@@ -46,7 +46,8 @@ int run(int argc, char** argv) {
       {"max_mm", m.max_mm},           {"rms_mm", m.rms_mm},
       {"max_rise_mm", m.max_rise_mm}, {"rms_rise_mm", m.rms_rise_mm},
       {"max_fall_mm", m.max_fall_mm}, {"rms_fall_mm", m.rms_fall_mm},
-      {"wrong_way_mm", m.wrong_way_mm}, {"settle_s", m.settle_s},
+      {"wrong_way_mm", m.wrong_way_mm}, {"wrong_way_before_mm", m.wrong_way_before_mm},
+      {"settle_s", m.settle_s},
       {"settle_max_s", m.settle_max_s}, {"sse_mm", m.sse_mm},
       {"max_heat_mm", m.max_heat_mm}, {"rms_heat_mm", m.rms_heat_mm},
       {"max_cool_mm", m.max_cool_mm}, {"overshoot_pct", m.overshoot_pct}};

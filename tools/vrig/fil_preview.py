@@ -62,14 +62,15 @@ def main():
             t, m = futs[fu]
             res[f"{t}_{m}"] = fu.result()
 
-    print("| test | controller | max mm | RMS mm | max rise | max fall | wrong-way | SSE mm | control cycles max/mean |")
+    print("| test | controller | max mm | RMS mm | max rise | max fall | wrong-way after / before a step | SSE mm | "
+          "control cycles max/mean |")
     print("|---|---|---|---|---|---|---|---|---|")
     for t, _, _ in RUNS:
         for m, label in MODES:
             r = res[f"{t}_{m}"]
             c = r["cycles"]
             print(f"| {t} | {label} | {r['max_mm']:.4f} | {r['rms_mm']:.4f} | {r['max_rise_mm']:.4f} | "
-                  f"{r['max_fall_mm']:.4f} | {r['wrong_way_mm']:.4f} | {r['sse_mm']:.4f} | "
+                  f"{r['max_fall_mm']:.4f} | {r['wrong_way_mm']:.4f} / {r['wrong_way_before_mm']:.4f} | {r['sse_mm']:.4f} | "
                   f"{c['control_cycles_max']}/{c['control_cycles_mean']:.0f} |")
     with open(os.path.join(a.out, "fil_preview.json"), "w") as f:
         json.dump(res, f, indent=1)
@@ -91,6 +92,10 @@ def main():
     bad = [n for n, ok in checks if not ok]
     for n, ok in checks:
         print(("PASS " if ok else "FAIL ") + n)
+    # Reported, not yet a pass condition (issue 13, open): the preview may cool early for the
+    # down-step and take the minor-loop rise while the setpoint still holds.
+    wb = p["wrong_way_before_mm"]
+    print(("MET " if wb <= 0.03 else "NOT MET (reported) ") + f"steps wrong-way before a step <= 0.03 mm: {wb:.4f}")
     sys.exit(1 if bad else 0)
 
 

@@ -8,6 +8,10 @@
 //  - wrong_way_mm: after each reversal of the reference (sine peak or valley) or step, how far
 //    the position first moves away from the new direction (e.g. up after a down-step: the
 //    minor-loop rise of eqs 5-6), measured from where it was at the reversal;
+//  - wrong_way_before_mm: steps: once the position has arrived at a setpoint, how far it then
+//    passes it on the side away from the NEXT setpoint before that step comes (a controller that
+//    knows the future may cool early for a down-step and take the minor-loop rise while the
+//    setpoint still holds: wrong_way_mm, measured after the step, does not see that move);
 //  - settle_s / settle_max_s: steps: mean / worst time to come within 5 % of the step and stay.
 //  - sse_mm: steps: for each step, the smallest |mean error| over a 2 s window (0.5 s apart) in
 //    the step's second half; the max over steps. A step that never sits on its setpoint has
@@ -37,6 +41,7 @@ struct Metrics {
   double max_fall_mm = 0;   // reference falling / after a down-step, transitions included
   double rms_fall_mm = 0;
   double wrong_way_mm = 0;  // max move away from the new direction after a reversal or step
+  double wrong_way_before_mm = 0;  // steps: past a held setpoint, away from the next one
   double settle_s = 0;      // steps: mean time to enter and stay within 5 % of the step
   double settle_max_s = 0;  // steps: worst such time
   double sse_mm = 0;        // steps: steady-state error (see the header comment)
@@ -168,6 +173,8 @@ inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool 
     const bool up = step > 0;
     detail::Acc& phase = up ? rise : fall;
     bool arrived = false;
+    // The next setpoint's side: a move past r on the other side, after arriving, is wrong-way.
+    const double next_dir = end < run.size() ? run[end].ref - r : 0.0;
     double last_out = run[start].t;  // last time outside the 5 % band
     double tail_sum = 0, tail_sq = 0, tail_max = 0;
     long tail_n = 0;
@@ -180,6 +187,8 @@ inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool 
         if (up) heat.add(e);
         else if (fabs(e) > m.max_cool_mm) m.max_cool_mm = fabs(e);
         const double over = up ? -e : e;  // past the setpoint
+        if (next_dir > 1e-9 || next_dir < -1e-9)  // e = r - pos: positive below the setpoint
+          m.wrong_way_before_mm = fmax(m.wrong_way_before_mm, next_dir > 0 ? e : -e);
         if (fabs(step) > 1e-9 && over > 0)
           m.overshoot_pct = fmax(m.overshoot_pct, 100.0 * over / fabs(step));
       }
