@@ -58,13 +58,6 @@ struct EffectSpec {
   double& at(sma::Effects& fx, int i) const { return value(fx, key[i]); }
 };
 
-// The flat key of an effect row.
-inline uint8_t effect_key(sma::param::Row r) {
-  uint8_t k = 0;
-  for (uint8_t i = 0; i < static_cast<uint8_t>(r); ++i) k = static_cast<uint8_t>(k + sma::param::width(sma::param::row(i).kind));
-  return k;
-}
-
 inline const std::vector<EffectSpec>& vocabulary() {
   using R = sma::param::Row;
   static const std::vector<EffectSpec> v = [] {
@@ -97,7 +90,7 @@ inline const std::vector<EffectSpec>& vocabulary() {
     for (EffectSpec& e : s) {
       e.n = e.row[1] == R::none ? 1 : 2;
       for (int i = 0; i < e.n; ++i) {
-        e.key[i] = effect_key(e.row[i]);
+        e.key[i] = sma::param::first_key(e.row[i]);
         e.param[i] = param_of_key(e.key[i]);
       }
       e.name = effect_of_key(e.key[0]);
@@ -298,28 +291,23 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
   pb.only = split.train;
   pb.tie_bands = false;
   pb.penalty = 1.0;  // mm: a non-physical trial
-  const std::vector<ParamSpec> named = fittable_params(pb.start);
-  auto spec_of = [&named](const std::string& name, double scale, double lo, double hi) {
-    for (const ParamSpec& s : named)
-      if (s.name == name) {
-        ParamSpec out = s;
-        out.scale = scale;
-        out.log = false;
-        out.lo = lo;
-        out.hi = hi;
-        return out;
-      }
-    throw Error("discrepancy: no fittable parameter named '" + name + "'");
+  auto spec_of = [&pb](uint8_t key, double scale, double lo, double hi) {
+    ParamSpec out = param_spec(key, pb.start);
+    out.scale = scale;
+    out.log = false;
+    out.lo = lo;
+    out.hi = hi;
+    return out;
   };
   for (const FittedEffect& e : effects)
     for (int i = 0; i < e.spec->n; ++i)
       if (!hold_effects && !frozen(*e.spec, i, base)) {
-        pb.specs.push_back(spec_of(e.spec->param[i], e.spec->scale[i], e.spec->lo[i], e.spec->hi[i]));
+        pb.specs.push_back(spec_of(e.spec->key[i], e.spec->scale[i], e.spec->lo[i], e.spec->hi[i]));
         pb.x0.push_back(sma::clamp(e.value[i], e.spec->lo[i], e.spec->hi[i]));
       }
   const size_t n_effect_params = pb.specs.size();
   for (const BaseSpec* b : base) {
-    pb.specs.push_back(spec_of(b->name, b->scale, -INFINITY, INFINITY));
+    pb.specs.push_back(spec_of(b->key, b->scale, -INFINITY, INFINITY));
     pb.x0.push_back(b->get(p));
   }
   const Eigen::Index n = static_cast<Eigen::Index>(pb.specs.size());
