@@ -107,9 +107,11 @@ int run(int argc, char** argv) {
           continue;
         }
         const sma_host::BaseSpec* b = sma_host::find_base(n);
-        if (!b)
-          throw Error("--refit-base: unknown parameter '" + n +
-                      "' (all, h, T_AS, T_AF, T_MF, q, e, T_MSs, T_MSf, g, j1..j3, T_ii1..T_ii3, T_amb)");
+        if (!b) {
+          std::string known = "all";
+          for (const sma_host::BaseSpec& k : sma_host::refittable_base()) known += ", " + k.name;
+          throw Error("--refit-base: unknown parameter '" + n + "' (" + known + ")");
+        }
         opt.refit_base.push_back(b);
       }
     }
@@ -149,9 +151,7 @@ int run(int argc, char** argv) {
   {
     std::string asked, lacking;
     for (const sma_host::BaseSpec* b : opt.refit_base) {
-      const std::string n = b->name;
-      if (n == "T_MF" || n == "q" || n == "e" || n == "T_MSs" || n == "T_MSf" || n[0] == 'j' || n.compare(0, 4, "T_ii") == 0)
-        asked += (asked.empty() ? "" : ", ") + n;
+      if (sma_host::cooling_param(b->key)) asked += (asked.empty() ? "" : ", ") + b->name;
     }
     size_t cooling = 0;
     for (const sma_host::RigLog& fl : files) {

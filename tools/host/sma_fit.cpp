@@ -403,13 +403,9 @@ int run(int argc, char** argv) {
   // A fit of the cooling parameters needs a log that cools the wire back through its
   // transformation: refused, naming the logs and the parameters, rather than misfitted.
   {
-    const Row cooling[] = {Row::T_MF, Row::q, Row::e, Row::T_MSs, Row::T_MSf, Row::loop_j, Row::loop_T_ii};
     std::vector<std::string> asked;
-    for (const ParamSpec& sp : pb.specs) {
-      bool c = false;
-      for (Row r : cooling) c = c || sp.is(r);
-      if (c) asked.push_back(sp.name);
-    }
+    for (const ParamSpec& sp : pb.specs)
+      if (sma_host::cooling_param(sp.key)) asked.push_back(sp.name);
     std::vector<std::string> no_cooling;
     for (const RigLog& l : logs)
       if (!sma_host::cools_in_log(l)) no_cooling.push_back(l.name);

@@ -571,11 +571,23 @@ inline void check_compatible(const std::vector<const RigLog*>& logs) {
   }
 }
 
+// The parameters only a log that cools the wire back through its transformation excites: the
+// cooling band and its start (T_MF, q, e of eq 10, T_MSs, T_MSf of eq 9) and the minor loops
+// (j, T_ii: the loops open at a reversal from heating to cooling, eq 7). kNoKey: false.
+inline bool cooling_param(uint8_t key) {
+  using R = sma::param::Row;
+  if (key == sma::param::kNoKey) return false;
+  switch (static_cast<R>(sma::param::locate(key).row)) {
+    case R::T_MF: case R::q: case R::e: case R::T_MSs: case R::T_MSf: case R::loop_j: case R::loop_T_ii: return true;
+    default: return false;
+  }
+}
+
 // True if the log shows the wire cooling back: the measured position (averaged over 0.5 s) falls
 // from its running peak by at least `min_drop` of the log's stroke (1st..99th percentile), i.e.
 // part of the reverse transformation was recorded. From the data, not from a start model (a bad
-// start model may never cool on the log's voltage). Without it the cooling parameters (T_MF, q,
-// e, T_MSs, T_MSf, loops) have nothing to be fitted on.
+// start model may never cool on the log's voltage). Without it the cooling parameters
+// (cooling_param) have nothing to be fitted on.
 inline bool cools_in_log(const RigLog& log, double min_drop = 0.2) {
   const size_t n = log.size();
   if (n < 3) return false;
