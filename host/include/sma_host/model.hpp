@@ -16,13 +16,23 @@ struct Model {
   sma::Effects fx;
 };
 
+// What the table's AVR-safe writers (put_key_name, put_violation: anything with put(char))
+// write, as a string.
+struct StringSink {
+  std::string s;
+  void put(char c) { s.push_back(c); }
+};
+
 // The parameter table's flat keys (sma/param_table.hpp) by their names on the host.
 inline std::string key_name(uint8_t k) {  // rho, m3, loop1.T_ii, sensor_delay.delay_s, loops
-  struct Out {
-    std::string s;
-    void put(char c) { s.push_back(c); }
-  } o;
+  StringSink o;
   sma::param::put_key_name(o, k);
+  return o.s;
+}
+// What check() found, as its message ("T_AF: must be > T_AS").
+inline std::string violation_text(sma::param::Violation v) {
+  StringSink o;
+  sma::param::put_violation(o, v);
   return o.s;
 }
 inline sma::param::Kind key_kind(uint8_t k) { return sma::param::row(sma::param::locate(k).row).kind; }

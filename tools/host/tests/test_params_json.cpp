@@ -144,3 +144,20 @@ TEST(ParamsJson, ReheatKey) {
     }
   }
 }
+
+// The host's names and messages of the parameter table come from one string writer
+// (sma_host::StringSink): the board's spelling of a key, and check()'s message as the board
+// prints it after "ERR " (docs/identification.md, "One parameter table").
+TEST(ParamsJson, KeyNamesAndViolationMessagesAreTheTables) {
+  using sma::param::Row;
+  using sma::param::Rule;
+  using sma::param::key_of;
+  EXPECT_EQ(sma_host::key_name(key_of<Row::m>(3)), "m3");
+  EXPECT_EQ(sma_host::key_name(key_of<Row::loop_T_ii>(1)), "loop1.T_ii");
+  EXPECT_EQ(sma_host::key_name(key_of<Row::delay_s>()), "sensor_delay.delay_s");
+  EXPECT_EQ(sma_tools::violation_text({key_of<Row::T_AF>(), Rule::above}), "T_AF: must be > T_AS");
+  EXPECT_EQ(sma_tools::violation_text({key_of<Row::gain>(), Rule::range}), "sensor_calibration.gain: must be in 0.2..5");
+  sma::Params p;
+  p.T_AF = p.T_AS - 1.0;  // eq 2: austenite finishes above its start
+  EXPECT_EQ(sma_tools::violation_text(p.check()), "T_AF: must be > T_AS");
+}

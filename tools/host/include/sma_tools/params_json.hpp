@@ -39,6 +39,7 @@ struct EffectKey {
 using sma_host::key_kind;
 using sma_host::key_name;
 using sma_host::value;
+using sma_host::violation_text;
 inline const std::vector<ParamKey>& param_keys() {
   static const std::vector<ParamKey> keys = [] {
     std::vector<ParamKey> v;
@@ -72,15 +73,6 @@ inline std::string effect_names_list() {
   return out;
 }
 
-// What check() found, as its message ("T_AF: must be > T_AS").
-inline std::string violation_text(sma::param::Violation v) {
-  struct Out {
-    std::string s;
-    void put(char c) { s.push_back(c); }
-  } o;
-  sma::param::put_violation(o, v);
-  return o.s;
-}
 
 // Sets effect parameter `effect`.`param`; throws naming what is unknown.
 inline void set_effect(sma::Effects& fx, const std::string& effect, const std::string& param,
