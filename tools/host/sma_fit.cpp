@@ -219,8 +219,7 @@ int run(int argc, char** argv) {
     else if (k == "--band-hint") band_hint = a.number(k);
     else if (k == "--reheat") {
       reheat_arg = a.value(k);
-      if (reheat_arg != "return_point" && reheat_arg != "new_loop")
-        throw Error("--reheat must be return_point or new_loop, not '" + reheat_arg + "'");
+      reheat_option(reheat_arg);
     }
     else if (!k.empty() && k[0] == '-') throw Error("unknown option '" + k + "' (see --help)");
     else log_paths.push_back(k);
@@ -233,7 +232,7 @@ int run(int argc, char** argv) {
   // the logs themselves plug in here, as a function (logs, Model) -> Model.
   Model start = read_model(params_path);
   if (!reheat_arg.empty())
-    start.p.reheat = reheat_arg == "new_loop" ? sma::Reheat::new_loop : sma::Reheat::return_point;
+    start.p.reheat = reheat_option(reheat_arg);
   const std::string start_name = params_path.empty() ? "the paper's Table II" : params_path;
   std::vector<RigLog> logs;
   std::vector<std::string> notes;

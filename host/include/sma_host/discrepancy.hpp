@@ -784,10 +784,6 @@ inline Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options
 
 // ---- the re-heat reading -------------------------------------------------------------------
 
-inline const char* reading_name(sma::Reheat r) {
-  return r == sma::Reheat::new_loop ? "new_loop" : "return_point";
-}
-
 // The reading of a re-heat that stops short of transformation is a choice of the model's
 // structure (hysteresis.hpp), not an effect: it is decided first, with the effects fitted under
 // each reading. When the two readings predict the log alike (no such re-heat, or one that
@@ -801,7 +797,7 @@ Diagnosis diagnose_reading(const sma::Params& p, const RigLog& log, const Option
   const int given = p.reheat == sma::Reheat::new_loop ? 1 : 0;
   if (!o.choose_reading) {
     Diagnosis d = diagnose(p, log, o, progress, start);
-    d.reading_why = std::string("given (") + reading_name(p.reheat) + "): not compared";
+    d.reading_why = std::string("given (") + reheat_name(p.reheat) + "): not compared";
     return d;
   }
   sma::Params alt = p;
@@ -816,7 +812,7 @@ Diagnosis diagnose_reading(const sma::Params& p, const RigLog& log, const Option
     Diagnosis d = diagnose(p, log, o, progress, start);
     std::snprintf(buf, sizeof buf,
                   "kept %s: the two readings of a re-heat predict this log alike (%.2g mm RMS apart, "
-                  "noise %.2g mm)", reading_name(p.reheat), diff, noise);
+                  "noise %.2g mm)", reheat_name(p.reheat), diff, noise);
     d.reading_why = buf;
     return d;
   }
@@ -831,9 +827,9 @@ Diagnosis diagnose_reading(const sma::Params& p, const RigLog& log, const Option
   std::snprintf(buf, sizeof buf,
                 "%s %s: final held-out gap %.4g mm with %s, %.4g mm with %s (noise %.2g mm; the readings "
                 "differ by %.2g mm RMS on this log)",
-                switch_reading ? "chose" : "kept", reading_name(d.params.reheat), d.rms_test_final,
-                reading_name(d.params.reheat), (switch_reading ? dg : da).rms_test_final,
-                reading_name((switch_reading ? dg : da).params.reheat), noise, diff);
+                switch_reading ? "chose" : "kept", reheat_name(d.params.reheat), d.rms_test_final,
+                reheat_name(d.params.reheat), (switch_reading ? dg : da).rms_test_final,
+                reheat_name((switch_reading ? dg : da).params.reheat), noise, diff);
   d.reading_why = buf;
   return d;
 }

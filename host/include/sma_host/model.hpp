@@ -55,6 +55,20 @@ inline std::string fit_name(uint8_t k) {
     default: return key_name(k);
   }
 }
+// The loop memory's reading of a re-heat that stops short of transformation (sma::Reheat,
+// hysteresis.hpp) by its name in params JSON ("reheat"), reports and the tools' --reheat.
+inline const char* reheat_name(sma::Reheat r) {
+  return r == sma::Reheat::new_loop ? "new_loop" : "return_point";
+}
+inline bool reheat_from_text(const std::string& s, sma::Reheat& r) {
+  for (sma::Reheat c : {sma::Reheat::return_point, sma::Reheat::new_loop})
+    if (s == reheat_name(c)) {
+      r = c;
+      return true;
+    }
+  return false;
+}
+
 // The value of flat key k (not the loop count) in a model.
 inline double& value(Model& m, uint8_t k) { return *sma::param::value_ptr(m.p, m.fx, k); }
 inline double value(const Model& m, uint8_t k) { return sma::param::get_value(m.p, m.fx, k); }

@@ -161,3 +161,19 @@ TEST(ParamsJson, KeyNamesAndViolationMessagesAreTheTables) {
   p.T_AF = p.T_AS - 1.0;  // eq 2: austenite finishes above its start
   EXPECT_EQ(sma_tools::violation_text(p.check()), "T_AF: must be > T_AS");
 }
+
+// The re-heat reading has one spelling in params JSON, reports and the tools' --reheat.
+TEST(ParamsJson, ReheatReadingOneSpellingEverywhere) {
+  for (sma::Reheat r : {sma::Reheat::return_point, sma::Reheat::new_loop}) {
+    EXPECT_EQ(sma_tools::reheat_option(sma_host::reheat_name(r)), r);
+    Model m;
+    m.p.reheat = r;
+    EXPECT_EQ(model_from_text(model_to_json(m), "p.json").p.reheat, r);
+  }
+  try {
+    sma_tools::reheat_option("rpm");
+    ADD_FAILURE() << "accepted --reheat rpm";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--reheat must be return_point or new_loop, not 'rpm'"), std::string::npos);
+  }
+}

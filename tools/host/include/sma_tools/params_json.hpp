@@ -121,14 +121,17 @@ inline double need_number(const json::Value& v, const std::string& where, const 
 }
 
 // The re-heat reading of the loop memory (sma::Reheat, hysteresis.hpp), key "reheat".
-inline const char* reheat_name(sma::Reheat r) {
-  return r == sma::Reheat::new_loop ? "new_loop" : "return_point";
-}
+using sma_host::reheat_name;
 inline sma::Reheat reheat_from_name(const json::Value& v, const std::string& at) {
-  const bool text = v.type == json::Value::Type::String;
-  if (text && v.str == "return_point") return sma::Reheat::return_point;
-  if (text && v.str == "new_loop") return sma::Reheat::new_loop;
+  sma::Reheat r;
+  if (v.type == json::Value::Type::String && sma_host::reheat_from_text(v.str, r)) return r;
   throw Error(at + ": key 'reheat' must be \"return_point\" or \"new_loop\"");
+}
+// The tools' --reheat VALUE.
+inline sma::Reheat reheat_option(const std::string& s) {
+  sma::Reheat r;
+  if (!sma_host::reheat_from_text(s, r)) throw Error("--reheat must be return_point or new_loop, not '" + s + "'");
+  return r;
 }
 
 // Fills `m` from a parsed object (keys not given keep their value in m).
