@@ -440,9 +440,10 @@ inline std::vector<FittedEffect> present_effects(const sma::Effects& fx) {
 // are moved (the others stay part of the model). Other effects: the base unchanged.
 inline sma::Params equivalent_base(const sma::Params& p, const EffectSpec& spec, const double* value,
                                    const std::vector<const BaseSpec*>& base) {
-  const std::string name = spec.name;
-  const double beta = name == "convection_nonlinear" ? value[0] : 0.0;
-  const double shift = name == "ambient_offset" ? value[0] : 0.0;
+  using R = sma::param::Row;
+  using sma::param::key_of;
+  const double beta = spec.row[0] == R::beta_per_K ? value[0] : 0.0;
+  const double shift = spec.row[0] == R::offset_K ? value[0] : 0.0;
   if (beta <= 0.0 && shift == 0.0) return p;
   const double dT_mid = 0.5 * (p.T_AS + p.T_AF) - p.T_amb;
   auto map_T = [&](double T) {
@@ -452,11 +453,12 @@ inline sma::Params equivalent_base(const sma::Params& p, const EffectSpec& spec,
   };
   sma::Params q = p;
   for (const BaseSpec* b : base) {
-    const std::string n = b->name;
-    if (n == "h" && beta > 0.0) b->ref(q) = p.h / (1.0 + beta * dT_mid);
-    if (n[0] == 'T' && n != "T_amb") b->ref(q) = map_T(b->get(p));
-    if (n == "e") b->ref(q) = map_T(p.e);  // eq 10: T_MSi = q eps_h + e
-    if (n == "q") b->ref(q) = map_T(p.q + p.e) - map_T(p.e);
+    // The wire's temperatures (a degC key but the ambient's) map; e (eq 10: T_MSi = q eps_h + e)
+    // is one, q the difference of two.
+    const bool wire_T = key_unit(b->key) == "degC" && b->key != key_of<R::T_amb>();
+    if (b->key == key_of<R::h>() && beta > 0.0) b->ref(q) = p.h / (1.0 + beta * dT_mid);
+    else if (b->key == key_of<R::q>()) b->ref(q) = map_T(p.q + p.e) - map_T(p.e);
+    else if (wire_T) b->ref(q) = map_T(b->get(p));
   }
   return q.check() == nullptr ? q : p;
 }

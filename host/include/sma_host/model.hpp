@@ -36,6 +36,14 @@ inline std::string violation_text(sma::param::Violation v) {
   return o.s;
 }
 inline sma::param::Kind key_kind(uint8_t k) { return sma::param::row(sma::param::locate(k).row).kind; }
+// The unit of flat key k as the table writes it (degC, W/(m^2*K), 1/K; "1": dimensionless).
+inline std::string key_unit(uint8_t k) {
+#define SMA_HOST_ROW_UNIT(id, name, unit, lo, hi, kind, member, above) unit,
+  static const char* const units[] = {SMA_PARAM_TABLE(SMA_HOST_ROW_UNIT)};
+#undef SMA_HOST_ROW_UNIT
+  const uint8_t r = sma::param::locate(k).row;
+  return r < static_cast<uint8_t>(sma::param::Row::count) ? units[r] : "";
+}
 // An effect's key: its vocabulary name (interfaces.md) and its parameter's JSON name.
 inline std::string effect_of_key(uint8_t k) {
   const std::string n = key_name(k);

@@ -155,6 +155,9 @@ TEST(ParamsJson, KeyNamesAndViolationMessagesAreTheTables) {
   EXPECT_EQ(sma_host::key_name(key_of<Row::m>(3)), "m3");
   EXPECT_EQ(sma_host::key_name(key_of<Row::loop_T_ii>(1)), "loop1.T_ii");
   EXPECT_EQ(sma_host::key_name(key_of<Row::delay_s>()), "sensor_delay.delay_s");
+  EXPECT_EQ(sma_host::key_unit(key_of<Row::h>()), "W/(m^2*K)");
+  EXPECT_EQ(sma_host::key_unit(key_of<Row::loop_T_ii>(2)), "degC");
+  EXPECT_EQ(sma_host::key_unit(key_of<Row::m>(4)), "1");
   EXPECT_EQ(sma_tools::violation_text({key_of<Row::T_AF>(), Rule::above}), "T_AF: must be > T_AS");
   EXPECT_EQ(sma_tools::violation_text({key_of<Row::gain>(), Rule::range}), "sensor_calibration.gain: must be in 0.2..5");
   sma::Params p;
