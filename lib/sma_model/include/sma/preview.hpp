@@ -40,6 +40,7 @@
 #include <new>  // placement new of PreviewSlot (the AVR board provides its own, sma/board.hpp)
 #endif
 #include "effects.hpp"
+#include "heat_gain.hpp"
 #include "hysteresis.hpp"
 #include "mechanics.hpp"
 #include "params.hpp"
@@ -79,6 +80,12 @@ struct PreviewConfig {
   // instead of only a switch planned for "now". Off by default: docs/control.md has the
   // trade (better rig-like sine and Q16.16 multi-step, worse ideal sine in double).
   bool commit_switch = false;
+  // Heat-balance observer (heat_gain.hpp): the wire's power gain against the model's (a model h,
+  // R or diameter that is off), learned apart from a shift of the curves and applied to the model
+  // wire, so that its temperature, and the loop memory it walks, stay the wire's. 0 = off.
+  double heat_gain_memory_s = 60.0;  // forgetting time of the regression, s
+  double heat_gain_adapt_s = 1.0;    // time constant of the gain's move to the regression, s
+  double heat_gain_dead_zone = 0.03;  // |k - 1| below this reads as the model's own h
 
   const char* check() const {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
@@ -92,6 +99,10 @@ struct PreviewConfig {
     if (!(deadband_mm >= 0.0 && deadband_mm < 1.0)) return "deadband_mm must be in 0..1";
     if (!(switch_margin_mm >= 0.0 && switch_margin_mm < 1.0)) return "switch_margin_mm must be in 0..1";
     if (!(v_supply >= v_max && v_supply <= 50.0)) return "v_supply must be in v_max..50";
+    if (!(heat_gain_memory_s == 0.0 || (heat_gain_memory_s >= 1.0 && heat_gain_memory_s <= 1000.0)))
+      return "heat_gain_memory_s must be 0 or in 1..1000";
+    if (!(heat_gain_dead_zone >= 0.0 && heat_gain_dead_zone <= 0.2)) return "heat_gain_dead_zone must be in 0..0.2";
+    if (!(heat_gain_adapt_s >= 0.1 && heat_gain_adapt_s <= 1000.0)) return "heat_gain_adapt_s must be in 0.1..1000";
     return nullptr;
   }
 };
@@ -104,6 +115,7 @@ class PreviewCore {
   static constexpr uint8_t kMaxGrid = 32;  // the default 16 s horizon on a 0.5 s grid
   static constexpr uint8_t kCandidates = 7;
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
+  static constexpr uint8_t kObserveTicks = 10;  // ticks between samples of the heat-gain observer
 
   // curves and thermal: built from p and fx. model_valid: the caller's verdict on p and fx
   // (Params::check, Effects::check), e.g. a board's Controller built from the same set (on AVR a
@@ -135,7 +147,11 @@ class PreviewCore {
         track_next_(from_double<T>(cfg.track_s + cfg.dt)),
         dt_(cfg.dt),
         grid_s_(cfg.grid_s),
-        v_supply_(cfg.v_supply) {
+        v_supply_(cfg.v_supply),
+        grid_ticks_(from_double<T>(cfg.grid_s / cfg.dt)),
+        heat_(p, cfg.dt, kObserveTicks * cfg.dt, cfg.heat_gain_memory_s > 0.0 ? cfg.heat_gain_memory_s : 1.0,
+              cfg.heat_gain_adapt_s, cfg.heat_gain_dead_zone),
+        observe_heat_(cfg.heat_gain_memory_s > 0.0) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -194,6 +210,7 @@ class PreviewCore {
     ref_now_ = ref;
     // Integral action: the offset between the wire and the model wire.
     d_ = d_ + d_alpha_ * ((measured - mech_.displacement(eps_est_)) - d_);
+    if (observe_heat_ && ++observe_tick_ >= kObserveTicks) observe_heat(measured);
     follow_reference(ref);
     if (switch_due_ > 0 && --switch_due_ == 0) switch_branch();
     ++elapsed_ticks_;
@@ -208,15 +225,14 @@ class PreviewCore {
     if (!is_finite(r_lead)) r_lead = ref;
     const T T_cmd = branch_temperature(heating_, est_, T_est_, clamp(r_lead, T(0), mech_.g));
     const T slope = (T_cmd - T_est_) * inv_track_;
-    T v = min(thermal_.voltage_for(T_est_, slope, eps_est_, deps_), v_max_);  // eq 17
+    // Eq 17, with the observed heat loss: k^ G (T - T_a) = G (T - T_a) + C (extra slope).
+    const T extra = heat_.loss_correction() * inv_dt_ * (T_est_ - thermal_.T_a);
+    T v = min(thermal_.voltage_for(T_est_, slope + extra, eps_est_, deps_), v_max_);
     if (!is_finite(v)) v = T(0);
     if (!heating_ && pwm_top_ > 0 && T_est_ > est_.loop().T_MSi) v = pwm_level_below(v);  // loop(): prepared above
     v_ = v;
     // The model wire follows the commanded voltage.
-    T_est_ = wire_step_(T_est_, v, eps_est_, deps_);
-    const T eps_new = est_.update(T_est_);
-    deps_ = (eps_new - eps_est_) * inv_dt_;
-    eps_est_ = eps_new;
+    model_wire_step(v);
     return v_;
   }
 
@@ -245,13 +261,27 @@ class PreviewCore {
   T offset() const { return d_; }                 // measured - model position, mm
   bool heating() const { return heating_; }       // the branch the controller drives
   uint16_t plans() const { return plans_; }       // completed plans (tests, telemetry)
+  T heat_loss_gain() const { return heat_.gain(); }  // the wire's heat loss against the model's
 
  private:
   T hold_off() {
     v_ = T(0);
-    T_est_ = wire_step_(T_est_, T(0), eps_est_, T(0));
+    const T rise = T_est_ - thermal_.T_a;
+    T_est_ = wire_step_(T_est_, T(0), eps_est_, T(0)) - heat_.loss_correction() * rise;
+    heat_.tick(T_est_ - thermal_.T_a);
     eps_est_ = est_.update(T_est_);
     return v_;
+  }
+
+  // One tick of the model wire under voltage v (eq 1 with the observed heat loss k^ G) and of
+  // the observer's sensitivity along it.
+  void model_wire_step(T v) {
+    const T rise = T_est_ - thermal_.T_a;
+    T_est_ = wire_step_(T_est_, v, eps_est_, deps_) - heat_.loss_correction() * rise;
+    heat_.tick(T_est_ - thermal_.T_a);
+    const T eps_new = est_.update(T_est_);
+    deps_ = (eps_new - eps_est_) * inv_dt_;
+    eps_est_ = eps_new;
   }
 
   // The highest PWM level at or below v (the heater's duty = (V / v_supply)^2). A hundredth of
@@ -261,6 +291,37 @@ class PreviewCore {
     const double x = to_double(v) / v_supply_, top = pwm_top_;
     const double n = ::floor(x * x * top + 0.01);
     return from_double<T>(v_supply_ * ::sqrt(n / top));
+  }
+
+  // The position's slope (mm/K) on the branch the model wire walks; 0 where it is flat (off the
+  // branch, a flat stage, beyond the curves' ends).
+  T branch_slope() const {
+    const T Tw = T_est_;
+    if (est_.heating()) {
+      if (abs(curves_.eps_heat(Tw) - eps_est_) > T(0.002)) return T(0);
+      return mech_.g * (curves_.eps_heat(Tw + T(0.5)) - curves_.eps_heat(Tw - T(0.5)));
+    }
+    const CoolingLoop<T>& L = est_.loop();
+    if (abs(curves_.eps_cool(L, Tw) - eps_est_) > T(0.002)) return T(0);
+    return mech_.g * (curves_.eps_cool(L, Tw + T(0.5)) - curves_.eps_cool(L, Tw - T(0.5)));
+  }
+
+  // One sample of the heat-gain observer: the wire's apparent temperature (the model wire's plus
+  // the position gap over the branch slope, at most 10 K) against the unit-gain rise.
+  SMA_PREVIEW_NOINLINE void observe_heat(T measured) {
+    observe_tick_ = 0;
+    const T x_model = mech_.displacement(eps_est_);
+    const bool rising = measured - obs_meas_ > T(0.004) && x_model - obs_model_ > T(0.004);
+    obs_meas_ = measured;
+    obs_model_ = x_model;
+    // Only while both wires transform on the heating curve: the position then says the wire's
+    // temperature now. (After a peak it keeps the peak's; on a cooling loop it depends on where
+    // each wire reversed.)
+    if (!rising || !est_.heating()) return;
+    const T slope = branch_slope();
+    if (!(abs(slope) > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
+    const T gap = clamp((measured - mech_.displacement(eps_est_)) / slope, T(-10), T(10));
+    heat_.add(gap, slope);
   }
 
   // The branch follows the reference once it has moved with it: a turn against the branch
@@ -386,8 +447,10 @@ class PreviewCore {
     }
     const T target = branch_temperature(sim_heat_, sim_h_, sim_T_, r);
     // Exact limits of eq 1 over one grid step: full power, or none.
-    const T hi = grid_step_(sim_T_, v_max_);
-    const T lo = grid_step_(sim_T_, T(0));
+    // (the observed heat loss to first order over the grid step: (k^ - 1) G grid_s / C)
+    const T loss = heat_.loss_correction() * grid_ticks_ * (sim_T_ - thermal_.T_a);
+    const T hi = grid_step_(sim_T_, v_max_) - loss;
+    const T lo = grid_step_(sim_T_, T(0)) - loss;
     sim_T_ = clamp(target, lo, hi);
     // Error in 0.1 mm (Q16.16 keeps its square); e^2 (1 + e^2): errors past 0.1 mm weigh more,
     // so the plan trades a long small error for a short large one the way the max metric does.
@@ -421,6 +484,11 @@ class PreviewCore {
   uint16_t pwm_top_;
   T track_, track_next_;  // track_s, and track_s + dt (the next tick's lead, sampled between ticks)
   double dt_, grid_s_, v_supply_;
+  T grid_ticks_;  // grid_s / dt
+  HeatLossObserver<T> heat_;
+  bool observe_heat_;
+  uint8_t observe_tick_ = 0;
+  T obs_meas_ = T(0), obs_model_ = T(0);  // positions at the observer's last sample
   uint8_t switch_at_[kCandidates];
   // Model wire.
   T T_est_ = T(22), eps_est_ = T(0), deps_ = T(0), d_ = T(0), v_ = T(0);
