@@ -84,6 +84,7 @@ class HeatLossObserver {
   }
 
   T gain() const { return k_; }
+  T sensitivity() const { return S_; }  // dT/dk along the model wire's path, K
   // (k^ - 1) G dt / C: the model wire's extra loss per tick and kelvin above ambient.
   T loss_correction() const { return kc_; }
 

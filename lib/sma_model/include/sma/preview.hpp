@@ -306,8 +306,8 @@ class PreviewCore {
     return mech_.g * (curves_.eps_cool(L, Tw + T(0.5)) - curves_.eps_cool(L, Tw - T(0.5)));
   }
 
-  // One sample of the heat-gain observer: the wire's apparent temperature (the model wire's plus
-  // the position gap over the branch slope, at most 10 K) against the unit-gain rise.
+  // One sample of the heat-loss observer: the wire's temperature the measured position gives on
+  // the heating curve, minus the model wire's (at most 10 K apart).
   SMA_PREVIEW_NOINLINE void observe_heat(T measured) {
     observe_tick_ = 0;
     const T x_model = mech_.displacement(eps_est_);
@@ -320,8 +320,23 @@ class PreviewCore {
     if (!rising || !est_.heating()) return;
     const T slope = branch_slope();
     if (!(abs(slope) > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
-    const T gap = clamp((measured - mech_.displacement(eps_est_)) / slope, T(-10), T(10));
+    // The wire's temperature on the heating curve (eq 15 of the measured fraction, eq 14).
+    const T gap = clamp(curves_.heat_temperature(mech_.fraction(measured)) - T_est_, T(-10), T(10));
+    const T k_before = heat_.gain();
     heat_.add(gap, slope);
+    // A new gain changes the model wire's past: its temperature now is the one the new gain
+    // gives, to first order T + dk S. Both wires are on the heating curve (eq 4, no loop memory),
+    // so the model wire is re-anchored there, and the offset keeps the measured position.
+    const T T_new = T_est_ + (heat_.gain() - k_before) * heat_.sensitivity();
+    if (T_new != T_est_) {
+      const T x_old = mech_.displacement(eps_est_);
+      const T below = T_new - T(0.01);
+      est_.reset(below, curves_.eps_heat(below));
+      eps_est_ = est_.update(T_new);
+      T_est_ = T_new;
+      d_ = d_ + (x_old - mech_.displacement(eps_est_));
+      obs_model_ = mech_.displacement(eps_est_);
+    }
   }
 
   // The branch follows the reference once it has moved with it: a turn against the branch
