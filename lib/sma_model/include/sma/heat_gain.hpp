@@ -70,11 +70,13 @@ class HeatLossObserver {
     mwss_ = mwss_ + a_ * (w * s * s - mwss_);
     mwz_ = mwz_ + a_ * (w * z - mwz_);
     mwsz_ = mwsz_ + a_ * (w * s * z - mwsz_);
-    // The spread of S in the data: its weighted variance must exceed (4 K)^2, else the slope and
-    // the intercept are not separable.
-    const T det = mw_ * mwss_ - mws_ * mws_;
-    if (!(det > T(0.004) * mw_ * mw_)) return;
-    T k_ls = clamp((mw_ * mwsz_ - mws_ * mwz_) / det, k_lo_, k_hi_);
+    // The slope of z over s (ridge regression), pulled towards k = 1 by a prior worth a spread
+    // of S of 1 K: data that span few temperatures cannot tell the slope from the intercept (the
+    // first transient from ambient spans only a few kelvin).
+    const T var = mw_ * mwss_ - mws_ * mws_;  // mw^2 x the weighted variance of s
+    const T prior = T(1.0 / (64 * 64)) * mw_ * mw_;
+    if (!(var + prior > T(0))) return;
+    T k_ls = clamp((mw_ * mwsz_ - mws_ * mwz_ + prior) / (var + prior), k_lo_, k_hi_);
     if (!is_finite(k_ls)) return;
     // Within the dead zone the model's own h is kept: the slope's bias from the loop's transients
     // is a few per cent, and the preview is as sensitive to a wrong gain as to a wrong h.

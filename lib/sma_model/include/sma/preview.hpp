@@ -84,8 +84,11 @@ struct PreviewConfig {
   // R or diameter that is off), learned apart from a shift of the curves and applied to the model
   // wire, so that its temperature, and the loop memory it walks, stay the wire's. 0 = off.
   double heat_gain_memory_s = 60.0;  // forgetting time of the regression, s
-  double heat_gain_adapt_s = 1.0;    // time constant of the gain's move to the regression, s
+  double heat_gain_adapt_s = 0.3;    // time constant of the gain's move to the regression, s
   double heat_gain_dead_zone = 0.03;  // |k - 1| below this reads as the model's own h
+  // Ticks from a command to the measurement that first sees it: the PWM of the next tick plus
+  // the host's rig-like computation delay (a board: its PWM tick and ADC averaging, ~1.5).
+  double heat_gain_lag_ticks = 2.0;
 
   const char* check() const {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
@@ -102,6 +105,7 @@ struct PreviewConfig {
     if (!(heat_gain_memory_s == 0.0 || (heat_gain_memory_s >= 1.0 && heat_gain_memory_s <= 1000.0)))
       return "heat_gain_memory_s must be 0 or in 1..1000";
     if (!(heat_gain_dead_zone >= 0.0 && heat_gain_dead_zone <= 0.2)) return "heat_gain_dead_zone must be in 0..0.2";
+    if (!(heat_gain_lag_ticks >= 0.0 && heat_gain_lag_ticks <= 10.0)) return "heat_gain_lag_ticks must be in 0..10";
     if (!(heat_gain_adapt_s >= 0.1 && heat_gain_adapt_s <= 1000.0)) return "heat_gain_adapt_s must be in 0.1..1000";
     return nullptr;
   }
@@ -151,7 +155,8 @@ class PreviewCore {
         grid_ticks_(from_double<T>(cfg.grid_s / cfg.dt)),
         heat_(p, cfg.dt, kObserveTicks * cfg.dt, cfg.heat_gain_memory_s > 0.0 ? cfg.heat_gain_memory_s : 1.0,
               cfg.heat_gain_adapt_s, cfg.heat_gain_dead_zone),
-        observe_heat_(cfg.heat_gain_memory_s > 0.0) {
+        observe_heat_(cfg.heat_gain_memory_s > 0.0),
+        lag_ticks_(from_double<T>(cfg.heat_gain_lag_ticks)) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -169,6 +174,7 @@ class PreviewCore {
   SMA_PREVIEW_NOINLINE void reset(T T0, T eps0) {
     est_.reset(T0, eps0);
     T_est_ = T0;
+    T_prev_ = T0;
     eps_est_ = est_.eps();
     deps_ = T(0);
     d_ = T(0);
@@ -276,6 +282,7 @@ class PreviewCore {
   // One tick of the model wire under voltage v (eq 1 with the observed heat loss k^ G) and of
   // the observer's sensitivity along it.
   void model_wire_step(T v) {
+    T_prev_ = T_est_;
     const T rise = T_est_ - thermal_.T_a;
     T_est_ = wire_step_(T_est_, v, eps_est_, deps_) - heat_.loss_correction() * rise;
     heat_.tick(T_est_ - thermal_.T_a);
@@ -311,8 +318,9 @@ class PreviewCore {
   SMA_PREVIEW_NOINLINE void observe_heat(T measured) {
     observe_tick_ = 0;
     const T x_model = mech_.displacement(eps_est_);
-    const bool rising = measured - obs_meas_ > T(0.004) && x_model - obs_model_ > T(0.004);
-    obs_meas_ = measured;
+    const T x_wire = x_model + d_;  // the measurement low-passed (the offset estimate's filter)
+    const bool rising = x_wire - obs_meas_ > T(0.001) && x_model - obs_model_ > T(0.001);
+    obs_meas_ = x_wire;
     obs_model_ = x_model;
     // Only while both wires transform on the heating curve: the position then says the wire's
     // temperature now. (After a peak it keeps the peak's; on a cooling loop it depends on where
@@ -321,7 +329,10 @@ class PreviewCore {
     const T slope = branch_slope();
     if (!(abs(slope) > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
     // The wire's temperature on the heating curve (eq 15 of the measured fraction, eq 14).
-    const T gap = clamp(curves_.heat_temperature(mech_.fraction(measured)) - T_est_, T(-10), T(10));
+    // The measurement sees the commands of heat_gain_lag_ticks ago: the model wire as it was
+    // then (first order in its last step), else a heating transient reads as a gap.
+    const T T_then = T_est_ - lag_ticks_ * (T_est_ - T_prev_);
+    const T gap = clamp(curves_.heat_temperature(mech_.fraction(measured)) - T_then, T(-10), T(10));
     const T k_before = heat_.gain();
     heat_.add(gap, slope);
     // A new gain changes the model wire's past: its temperature now is the one the new gain
@@ -333,9 +344,10 @@ class PreviewCore {
       const T below = T_new - T(0.01);
       est_.reset(below, curves_.eps_heat(below));
       eps_est_ = est_.update(T_new);
+      T_prev_ = T_prev_ + (T_new - T_est_);
       T_est_ = T_new;
-      d_ = d_ + (x_old - mech_.displacement(eps_est_));
       obs_model_ = mech_.displacement(eps_est_);
+      d_ = d_ + (x_old - obs_model_);
     }
   }
 
@@ -504,6 +516,8 @@ class PreviewCore {
   bool observe_heat_;
   uint8_t observe_tick_ = 0;
   T obs_meas_ = T(0), obs_model_ = T(0);  // positions at the observer's last sample
+  T lag_ticks_;
+  T T_prev_ = T(22);  // the model wire before its last step
   uint8_t switch_at_[kCandidates];
   // Model wire.
   T T_est_ = T(22), eps_est_ = T(0), deps_ = T(0), d_ = T(0), v_ = T(0);
