@@ -1,6 +1,8 @@
 // The heat-loss observer (heat_gain.hpp) and its use by the preview controller: a model h that
 // is off is learned as k = h_wire / h_model, a shift of the curves' temperatures is not.
 #include <gtest/gtest.h>
+#include <initializer_list>
+#include <vector>
 #include "sma/heat_gain.hpp"
 #include "sma/thermal.hpp"
 #include "sma_host/metrics.hpp"
@@ -61,22 +63,40 @@ TEST(PreviewHeatLoss, NoEstimateWithoutATemperatureSpread) {
   EXPECT_EQ(obs.gain(), 1.0);
 }
 
-// In closed loop (rig-like, float): with the model's h 10 % low, the observer brings the sine's
-// whole-period RMS below 0.6x what the preview reaches without it; with the exact model it changes
-// nothing.
-TEST(PreviewHeatLoss, SineWithModelHLowTracksBetter) {
+sma_host::RunSetup closed_loop(bool sine, double h_scale, bool observe) {
   sma_host::RunSetup s;
   s.mode = sma::Mode::Preview;
-  s.reference = sma::Reference::sine();
+  s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
   s.condition = sma_host::Condition::rig_like();
-  auto rms = [&](double h_scale, bool observe) {
-    sma_host::RunSetup r = s;
-    r.model_params.h *= h_scale;
-    if (!observe) r.preview.heat_gain_memory_s = 0.0;
-    return sma_host::sine_metrics(sma_host::run_closed_loop<float>(r), s.reference.sine_period_s).rms_mm;
-  };
-  EXPECT_LT(rms(0.9, true), 0.6 * rms(0.9, false));
-  EXPECT_EQ(rms(1.0, true), rms(1.0, false));
+  s.model_params.h *= h_scale;
+  if (!observe) s.preview.heat_gain_memory_s = 0.0;
+  return s;
+}
+
+// In closed loop (rig-like, float), the model's h 10 % off either way: every step of the
+// multi-step is held (SSE <= 0.01 mm) and none overshoots by more than 0.03 mm within 10 s; the
+// sine's whole-period max stays <= 0.12 mm (without the observer: SSE 0.11 mm, overshoot
+// 0.18 mm, sine 0.24 mm).
+TEST(PreviewHeatLoss, ModelHOffTenPercentHoldsTheSetpoints) {
+  for (double h_scale : {0.9, 1.1}) {
+    const sma_host::RunSetup st = closed_loop(false, h_scale, true);
+    const std::vector<sma_host::Sample> r = sma_host::run_closed_loop<float>(st);
+    EXPECT_LE(sma_host::step_metrics(r, st.reference.step_s).sse_mm, 0.01) << "model h x" << h_scale;
+    EXPECT_LE(sma_host::step_overshoot_mm(r, st.reference.step_s, 10.0), 0.03) << "model h x" << h_scale;
+    const sma_host::RunSetup ss = closed_loop(true, h_scale, true);
+    EXPECT_LE(sma_host::sine_metrics(sma_host::run_closed_loop<float>(ss), ss.reference.sine_period_s).max_mm, 0.12)
+        << "model h x" << h_scale;
+  }
+}
+
+// With the exact model the observer changes nothing (its estimate stays in the dead zone).
+TEST(PreviewHeatLoss, ExactModelTracksAsWithoutTheObserver) {
+  for (bool sine : {false, true}) {
+    const std::vector<sma_host::Sample> on = sma_host::run_closed_loop<float>(closed_loop(sine, 1.0, true));
+    const std::vector<sma_host::Sample> off = sma_host::run_closed_loop<float>(closed_loop(sine, 1.0, false));
+    ASSERT_EQ(on.size(), off.size());
+    for (size_t i = 0; i < on.size(); ++i) ASSERT_EQ(on[i].truth, off[i].truth) << "t " << on[i].t;
+  }
 }
 
 }  // namespace

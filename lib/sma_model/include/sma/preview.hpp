@@ -83,6 +83,7 @@ struct PreviewConfig {
   // Heat-balance observer (heat_gain.hpp): the wire's power gain against the model's (a model h,
   // R or diameter that is off), learned apart from a shift of the curves and applied to the model
   // wire, so that its temperature, and the loop memory it walks, stay the wire's. 0 = off.
+  // (Float and double only: Q16.16 is too coarse for its sums.)
   double heat_gain_memory_s = 60.0;  // forgetting time of the regression, s
   double heat_gain_adapt_s = 0.3;    // time constant of the gain's move to the regression, s
   double heat_gain_dead_zone = 0.03;  // |k - 1| below this reads as the model's own h
@@ -155,7 +156,9 @@ class PreviewCore {
         grid_ticks_(from_double<T>(cfg.grid_s / cfg.dt)),
         heat_(p, cfg.dt, kObserveTicks * cfg.dt, cfg.heat_gain_memory_s > 0.0 ? cfg.heat_gain_memory_s : 1.0,
               cfg.heat_gain_adapt_s, cfg.heat_gain_dead_zone),
-        observe_heat_(cfg.heat_gain_memory_s > 0.0),
+        // The regression's means move by ~1e-5 a sample: a scalar that rounds 1e-6 to zero
+        // (Q16.16) cannot hold them, and runs without the observer (docs/control.md).
+        observe_heat_(cfg.heat_gain_memory_s > 0.0 && !(from_double<T>(1e-6) == T(0))),
         lag_ticks_(from_double<T>(cfg.heat_gain_lag_ticks)) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
