@@ -22,8 +22,8 @@
 // temperature). The caller applies k^ to the model wire: eq 1's loss term k^ G (T - T_a) in its
 // temperature step and in eq 17 (loss_correction()).
 //
-// Header-only, no STL; float, double and sma::Fixed (the sums are weighted means of values of
-// order 1: S and z in units of 64 K, the slope in 0.1 mm/K).
+// Header-only, no STL; float and double (it compiles for sma::Fixed, but its means move by ~1e-6
+// a sample: Q16.16 rounds them away, so the preview leaves it off there).
 #ifndef SMA_HEAT_GAIN_HPP
 #define SMA_HEAT_GAIN_HPP
 
@@ -61,20 +61,19 @@ class HeatLossObserver {
   // One sample while both wires transform on the heating curve: gap = T_wire - T_model seen
   // through the position (K), slope = the curve's position per kelvin (mm/K).
   void add(T gap, T slope) {
-    const T q = slope * T(10);
-    const T w = q * q;
-    const T s = S_ * T(1.0 / 64);
-    const T z = (gap + k_ * S_) * T(1.0 / 64);
+    const T w = slope * slope;
+    const T z = gap + k_ * S_;
+    const T ws = w * S_;
     mw_ = mw_ + a_ * (w - mw_);
-    mws_ = mws_ + a_ * (w * s - mws_);
-    mwss_ = mwss_ + a_ * (w * s * s - mwss_);
+    mws_ = mws_ + a_ * (ws - mws_);
+    mwss_ = mwss_ + a_ * (ws * S_ - mwss_);
     mwz_ = mwz_ + a_ * (w * z - mwz_);
-    mwsz_ = mwsz_ + a_ * (w * s * z - mwsz_);
-    // The slope of z over s (ridge regression), pulled towards k = 1 by a prior worth a spread
+    mwsz_ = mwsz_ + a_ * (ws * z - mwsz_);
+    // The slope of z over S (ridge regression), pulled towards k = 1 by a prior worth a spread
     // of S of 1 K: data that span few temperatures cannot tell the slope from the intercept (the
     // first transient from ambient spans only a few kelvin).
-    const T var = mw_ * mwss_ - mws_ * mws_;  // mw^2 x the weighted variance of s
-    const T prior = T(1.0 / (64 * 64)) * mw_ * mw_;
+    const T var = mw_ * mwss_ - mws_ * mws_;  // mw^2 x the weighted variance of S, K^2
+    const T prior = mw_ * mw_;                 // mw^2 x (1 K)^2
     if (!(var + prior > T(0))) return;
     T k_ls = clamp((mw_ * mwsz_ - mws_ * mwz_ + prior) / (var + prior), k_lo_, k_hi_);
     if (!is_finite(k_ls)) return;
@@ -93,7 +92,7 @@ class HeatLossObserver {
  private:
   T c_;  // G dt / C
   T a_, b_, k_lo_, k_hi_, dead_;
-  T mw_, mws_, mwss_, mwz_, mwsz_;  // weighted means: w, w s, w s^2, w z, w s z
+  T mw_, mws_, mwss_, mwz_, mwsz_;  // weighted means: w, w S, w S^2, w z, w S z
   T S_;                             // dT/dk along the model wire's path, K
   T k_, kc_;
 };

@@ -47,6 +47,12 @@
 #include "scalar.hpp"
 #include "thermal.hpp"
 
+// The heat-loss observer (heat_gain.hpp) in the tick; 0 leaves its code out of an image (~2.6 KB
+// of AVR flash, docs/control.md section 12).
+#ifndef SMA_PREVIEW_HEAT_LOSS
+#define SMA_PREVIEW_HEAT_LOSS 1
+#endif
+
 // One copy of the functions a board calls from several places (AVR flash).
 #define SMA_PREVIEW_NOINLINE __attribute__((noinline))
 
@@ -219,7 +225,7 @@ class PreviewCore {
     ref_now_ = ref;
     // Integral action: the offset between the wire and the model wire.
     d_ = d_ + d_alpha_ * ((measured - mech_.displacement(eps_est_)) - d_);
-    if (observe_heat_ && ++observe_tick_ >= kObserveTicks) observe_heat(measured);
+    if (SMA_PREVIEW_HEAT_LOSS && observe_heat_ && ++observe_tick_ >= kObserveTicks) observe_heat(measured);
     follow_reference(ref);
     if (switch_due_ > 0 && --switch_due_ == 0) switch_branch();
     ++elapsed_ticks_;
@@ -303,17 +309,12 @@ class PreviewCore {
     return from_double<T>(v_supply_ * ::sqrt(n / top));
   }
 
-  // The position's slope (mm/K) on the branch the model wire walks; 0 where it is flat (off the
-  // branch, a flat stage, beyond the curves' ends).
-  T branch_slope() const {
+  // The position's slope (mm/K) on the heating curve (eq 4) at the model wire; 0 where the model
+  // wire is off that curve (a flat stage) or the curve is flat.
+  T heating_slope() const {
     const T Tw = T_est_;
-    if (est_.heating()) {
-      if (abs(curves_.eps_heat(Tw) - eps_est_) > T(0.002)) return T(0);
-      return mech_.g * (curves_.eps_heat(Tw + T(0.5)) - curves_.eps_heat(Tw - T(0.5)));
-    }
-    const CoolingLoop<T>& L = est_.loop();
-    if (abs(curves_.eps_cool(L, Tw) - eps_est_) > T(0.002)) return T(0);
-    return mech_.g * (curves_.eps_cool(L, Tw + T(0.5)) - curves_.eps_cool(L, Tw - T(0.5)));
+    if (abs(curves_.eps_heat(Tw) - eps_est_) > T(0.002)) return T(0);
+    return mech_.g * (curves_.eps_heat(Tw + T(0.5)) - curves_.eps_heat(Tw - T(0.5)));
   }
 
   // One sample of the heat-loss observer: the wire's temperature the measured position gives on
@@ -329,7 +330,7 @@ class PreviewCore {
     // temperature now. (After a peak it keeps the peak's; on a cooling loop it depends on where
     // each wire reversed.)
     if (!rising || !est_.heating()) return;
-    const T slope = branch_slope();
+    const T slope = heating_slope();
     if (!(abs(slope) > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
     // The wire's temperature on the heating curve (eq 15 of the measured fraction, eq 14).
     // The measurement sees the commands of heat_gain_lag_ticks ago: the model wire as it was
