@@ -18,6 +18,13 @@
 //    by a low-pass (offset_tau_s) and subtracted from the reference before inversion, so a
 //    fitted model that is not the plant still reaches every setpoint (offset-free, as in
 //    disturbance-model MPC).
+//  - Heat-loss observer (heat_gain.hpp): a position offset cannot stand for a heat-balance
+//    error (a model h that is off heats the model wire to another temperature than the wire,
+//    and its loop memory then belongs to another wire). While both wires transform on the
+//    heating curve, the measured position gives the wire's temperature (eq 15); the gap to the
+//    model wire is regressed on dT/dk (slope: the wire's heat-loss gain k = h_wire / h_model;
+//    intercept: a shift of the curves, left to the offset). The model wire runs eq 1 and eq 17
+//    with k G, and a new k re-anchors it on the heating curve at T + dk dT/dk.
 //  - Planning (spread over ticks, steps_per_tick grid steps per tick): from copies of the model
 //    wire's temperature and hysteresis, it simulates the same branch policy on a coarse grid
 //    (grid_s, exact thermal limits: at most V_max, at least passive cooling) over the horizon,
