@@ -232,7 +232,7 @@ class PreviewCore {
     ref_now_ = ref;
     // Integral action: the offset between the wire and the model wire.
     d_ = d_ + d_alpha_ * ((measured - mech_.displacement(eps_est_)) - d_);
-    if (SMA_PREVIEW_HEAT_LOSS && observe_heat_ && ++observe_tick_ >= kObserveTicks) observe_heat(measured);
+    if (SMA_PREVIEW_HEAT_LOSS && observe_heat_ && ++observe_tick_ >= kObserveTicks) take_heat_sample(measured);
     follow_reference(ref);
     if (switch_due_ > 0 && --switch_due_ == 0) switch_branch();
     ++elapsed_ticks_;
@@ -261,7 +261,7 @@ class PreviewCore {
   // One grid step of the plan in progress (bounded work: one thermal step, one hysteresis
   // update, at most one future() call); true when it completed a plan (and decided). The
   // first call after a tick samples the next tick's lead reference instead (so the tick itself
-  // evaluates no future reference). With
+  // evaluates no future reference), and runs the heat-loss sample the tick took if any. With
   // plan_in_step = false the board calls it between ticks, as often as its idle time allows;
   // future(tau) is then the reference tau seconds after the last step()'s tick. Not from an
   // interrupt that can preempt step().
@@ -271,8 +271,12 @@ class PreviewCore {
     if (!plan_in_step_ && !lead_ready_) {  // first call after a tick: the next tick's lead sample (track_s ahead)
       lead_ = future(track_next_);
       lead_ready_ = true;
+      // A heat-loss sample of the last tick with it (a lead sample is cheap; the grid steps of
+      // the other calls keep their pace).
+      if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();
       return false;
     }
+    if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();  // in-step planning
     if (j_ >= n_grid_ && next_candidate()) return true;
     sim_step(future);
     return false;
@@ -324,9 +328,9 @@ class PreviewCore {
     return mech_.g * (curves_.eps_heat(Tw + T(0.5)) - curves_.eps_heat(Tw - T(0.5)));
   }
 
-  // One sample of the heat-loss observer: the wire's temperature the measured position gives on
-  // the heating curve, minus the model wire's (at most 10 K apart).
-  SMA_PREVIEW_NOINLINE void observe_heat(T measured) {
+  // The tick's part of a heat-loss sample (cheap): is this a sample, and what it saw. The rest
+  // (curves, regression, re-anchoring) runs in plan_step(), between ticks on a board.
+  void take_heat_sample(T measured) {
     observe_tick_ = 0;
     const T x_model = mech_.displacement(eps_est_);
     const T x_wire = x_model + d_;  // the measurement low-passed (the offset estimate's filter)
@@ -337,13 +341,20 @@ class PreviewCore {
     // temperature now. (After a peak it keeps the peak's; on a cooling loop it depends on where
     // each wire reversed.)
     if (!rising || !est_.heating()) return;
-    const T slope = heating_slope();
-    if (!(abs(slope) > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
-    // The wire's temperature on the heating curve (eq 15 of the measured fraction, eq 14).
+    obs_pending_ = true;
+    obs_x_ = measured;
     // The measurement sees the commands of heat_gain_lag_ticks ago: the model wire as it was
     // then (first order in its last step), else a heating transient reads as a gap.
-    const T T_then = T_est_ - lag_ticks_ * (T_est_ - T_prev_);
-    const T gap = clamp(curves_.heat_temperature(mech_.fraction(measured)) - T_then, T(-10), T(10));
+    obs_T_then_ = T_est_ - lag_ticks_ * (T_est_ - T_prev_);
+  }
+
+  // One sample of the heat-loss observer: the wire's temperature the measured position gives on
+  // the heating curve (eq 15 of the fraction, eq 14), minus the model wire's (at most 10 K apart).
+  SMA_PREVIEW_NOINLINE void observe_heat() {
+    obs_pending_ = false;
+    const T slope = heating_slope();
+    if (!(abs(slope) > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
+    const T gap = clamp(curves_.heat_temperature(mech_.fraction(obs_x_)) - obs_T_then_, T(-10), T(10));
     const T k_before = heat_.gain();
     heat_.add(gap, slope);
     // A new gain changes the model wire's past: its temperature now is the one the new gain
@@ -527,6 +538,8 @@ class PreviewCore {
   bool observe_heat_;
   uint8_t observe_tick_ = 0;
   T obs_meas_ = T(0), obs_model_ = T(0);  // positions at the observer's last sample
+  bool obs_pending_ = false;              // a sample waits for plan_step()
+  T obs_x_ = T(0), obs_T_then_ = T(0);    // its measurement and model wire temperature
   T lag_ticks_;
   T T_prev_ = T(22);  // the model wire before its last step
   uint8_t switch_at_[kCandidates];
