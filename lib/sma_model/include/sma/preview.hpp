@@ -232,7 +232,7 @@ class PreviewCore {
     ref_now_ = ref;
     // Integral action: the offset between the wire and the model wire.
     d_ = d_ + d_alpha_ * ((measured - mech_.displacement(eps_est_)) - d_);
-    if (SMA_PREVIEW_HEAT_LOSS && observe_heat_ && ++observe_tick_ >= kObserveTicks) take_heat_sample(measured);
+    if (observing() && ++observe_tick_ >= kObserveTicks) take_heat_sample(measured);
     follow_reference(ref);
     if (switch_due_ > 0 && --switch_due_ == 0) switch_branch();
     ++elapsed_ticks_;
@@ -248,7 +248,7 @@ class PreviewCore {
     const T T_cmd = branch_temperature(heating_, est_, T_est_, clamp(r_lead, T(0), mech_.g));
     const T slope = (T_cmd - T_est_) * inv_track_;
     // Eq 17, with the observed heat loss: k^ G (T - T_a) = G (T - T_a) + C (extra slope).
-    const T extra = heat_.loss_correction() * inv_dt_ * (T_est_ - thermal_.T_a);
+    const T extra = observing() ? heat_.loss_correction() * inv_dt_ * (T_est_ - thermal_.T_a) : T(0);
     T v = min(thermal_.voltage_for(T_est_, slope + extra, eps_est_, deps_), v_max_);
     if (!is_finite(v)) v = T(0);
     if (!heating_ && pwm_top_ > 0 && T_est_ > est_.loop().T_MSi) v = pwm_level_below(v);  // loop(): prepared above
@@ -292,20 +292,28 @@ class PreviewCore {
  private:
   T hold_off() {
     v_ = T(0);
-    const T rise = T_est_ - thermal_.T_a;
-    T_est_ = wire_step_(T_est_, T(0), eps_est_, T(0)) - heat_.loss_correction() * rise;
-    heat_.tick(T_est_ - thermal_.T_a);
+    model_wire_heat(T(0), T(0));
     eps_est_ = est_.update(T_est_);
     return v_;
   }
 
-  // One tick of the model wire under voltage v (eq 1 with the observed heat loss k^ G) and of
-  // the observer's sensitivity along it.
-  void model_wire_step(T v) {
+  bool observing() const { return SMA_PREVIEW_HEAT_LOSS && observe_heat_; }
+
+  // One tick of the model wire's temperature under voltage v (eq 1, with the observed heat loss
+  // k^ G) and of the observer's sensitivity along it.
+  void model_wire_heat(T v, T deps) {
     T_prev_ = T_est_;
-    const T rise = T_est_ - thermal_.T_a;
-    T_est_ = wire_step_(T_est_, v, eps_est_, deps_) - heat_.loss_correction() * rise;
-    heat_.tick(T_est_ - thermal_.T_a);
+    T next = wire_step_(T_est_, v, eps_est_, deps);
+    if (observing()) {
+      next = next - heat_.loss_correction() * (T_est_ - thermal_.T_a);
+      heat_.tick(next - thermal_.T_a);
+    }
+    T_est_ = next;
+  }
+
+  // The same with the model wire's hysteresis.
+  void model_wire_step(T v) {
+    model_wire_heat(v, deps_);
     const T eps_new = est_.update(T_est_);
     deps_ = (eps_new - eps_est_) * inv_dt_;
     eps_est_ = eps_new;
@@ -497,7 +505,7 @@ class PreviewCore {
     const T target = branch_temperature(sim_heat_, sim_h_, sim_T_, r);
     // Exact limits of eq 1 over one grid step: full power, or none.
     // (the observed heat loss to first order over the grid step: (k^ - 1) G grid_s / C)
-    const T loss = heat_.loss_correction() * grid_ticks_ * (sim_T_ - thermal_.T_a);
+    const T loss = observing() ? heat_.loss_correction() * grid_ticks_ * (sim_T_ - thermal_.T_a) : T(0);
     const T hi = grid_step_(sim_T_, v_max_) - loss;
     const T lo = grid_step_(sim_T_, T(0)) - loss;
     sim_T_ = clamp(target, lo, hi);
