@@ -54,8 +54,8 @@
 #include "scalar.hpp"
 #include "thermal.hpp"
 
-// The heat-loss observer (heat_gain.hpp) in the tick; 0 leaves its code out of an image (~2.6 KB
-// of AVR flash, docs/control.md section 12).
+// The heat-loss observer (heat_gain.hpp); 0 leaves its code out of an image (~2 KB of AVR flash,
+// docs/control.md section 12).
 #ifndef SMA_PREVIEW_HEAT_LOSS
 #define SMA_PREVIEW_HEAT_LOSS 1
 #endif
@@ -93,9 +93,9 @@ struct PreviewConfig {
   // instead of only a switch planned for "now". Off by default: docs/control.md has the
   // trade (better rig-like sine and Q16.16 multi-step, worse ideal sine in double).
   bool commit_switch = false;
-  // Heat-balance observer (heat_gain.hpp): the wire's power gain against the model's (a model h,
-  // R or diameter that is off), learned apart from a shift of the curves and applied to the model
-  // wire, so that its temperature, and the loop memory it walks, stay the wire's. 0 = off.
+  // Heat-loss observer (heat_gain.hpp): the wire's heat-loss gain against the model's (k =
+  // h_wire / h_model), learned apart from a shift of the curves and applied to the model wire, so
+  // that its temperature, and the loop memory it walks, stay the wire's. memory 0 = off.
   // (Float and double only: Q16.16 is too coarse for its sums.)
   double heat_gain_memory_s = 60.0;  // forgetting time of the regression, s
   double heat_gain_adapt_s = 0.3;    // time constant of the gain's move to the regression, s
@@ -133,7 +133,7 @@ class PreviewCore {
   static constexpr uint8_t kMaxGrid = 32;  // the default 16 s horizon on a 0.5 s grid
   static constexpr uint8_t kCandidates = 7;
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
-  static constexpr uint8_t kObserveTicks = 10;  // ticks between samples of the heat-gain observer
+  static constexpr uint8_t kObserveTicks = 10;  // ticks between samples of the heat-loss observer
 
   // curves and thermal: built from p and fx. model_valid: the caller's verdict on p and fx
   // (Params::check, Effects::check), e.g. a board's Controller built from the same set (on AVR a
