@@ -18,6 +18,13 @@
 //    by a low-pass (offset_tau_s) and subtracted from the reference before inversion, so a
 //    fitted model that is not the plant still reaches every setpoint (offset-free, as in
 //    disturbance-model MPC).
+//  - Heat-loss observer (heat_gain.hpp): a position offset cannot stand for a heat-balance
+//    error (a model h that is off heats the model wire to another temperature than the wire,
+//    and its loop memory then belongs to another wire). While both wires transform on the
+//    heating curve, the measured position gives the wire's temperature (eq 15); the gap to the
+//    model wire is regressed on dT/dk (slope: the wire's heat-loss gain k = h_wire / h_model;
+//    intercept: a shift of the curves, left to the offset). The model wire runs eq 1 and eq 17
+//    with k G, and a new k re-anchors it on the heating curve at T + dk dT/dk.
 //  - Planning (spread over ticks, steps_per_tick grid steps per tick): from copies of the model
 //    wire's temperature and hysteresis, it simulates the same branch policy on a coarse grid
 //    (grid_s, exact thermal limits: at most V_max, at least passive cooling) over the horizon,
@@ -40,11 +47,18 @@
 #include <new>  // placement new of PreviewSlot (the AVR board provides its own, sma/board.hpp)
 #endif
 #include "effects.hpp"
+#include "heat_gain.hpp"
 #include "hysteresis.hpp"
 #include "mechanics.hpp"
 #include "params.hpp"
 #include "scalar.hpp"
 #include "thermal.hpp"
+
+// The heat-loss observer (heat_gain.hpp); 0 leaves its code out of an image (~2 KB of AVR flash,
+// docs/control.md section 12).
+#ifndef SMA_PREVIEW_HEAT_LOSS
+#define SMA_PREVIEW_HEAT_LOSS 1
+#endif
 
 // One copy of the functions a board calls from several places (AVR flash).
 #define SMA_PREVIEW_NOINLINE __attribute__((noinline))
@@ -79,6 +93,16 @@ struct PreviewConfig {
   // instead of only a switch planned for "now". Off by default: docs/control.md has the
   // trade (better rig-like sine and Q16.16 multi-step, worse ideal sine in double).
   bool commit_switch = false;
+  // Heat-loss observer (heat_gain.hpp): the wire's heat-loss gain against the model's (k =
+  // h_wire / h_model), learned apart from a shift of the curves and applied to the model wire, so
+  // that its temperature, and the loop memory it walks, stay the wire's. memory 0 = off.
+  // (Float and double only: Q16.16 is too coarse for its sums.)
+  double heat_gain_memory_s = 60.0;  // forgetting time of the regression, s
+  double heat_gain_adapt_s = 0.3;    // time constant of the gain's move to the regression, s
+  double heat_gain_dead_zone = 0.03;  // |k - 1| below this reads as the model's own h
+  // Ticks from a command to the measurement that first sees it: the PWM of the next tick plus
+  // the host's rig-like computation delay (a board: its PWM tick and ADC averaging, ~1.5).
+  double heat_gain_lag_ticks = 2.0;
 
   const char* check() const {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
@@ -92,6 +116,11 @@ struct PreviewConfig {
     if (!(deadband_mm >= 0.0 && deadband_mm < 1.0)) return "deadband_mm must be in 0..1";
     if (!(switch_margin_mm >= 0.0 && switch_margin_mm < 1.0)) return "switch_margin_mm must be in 0..1";
     if (!(v_supply >= v_max && v_supply <= 50.0)) return "v_supply must be in v_max..50";
+    if (!(heat_gain_memory_s == 0.0 || (heat_gain_memory_s >= 1.0 && heat_gain_memory_s <= 1000.0)))
+      return "heat_gain_memory_s must be 0 or in 1..1000";
+    if (!(heat_gain_dead_zone >= 0.0 && heat_gain_dead_zone <= 0.2)) return "heat_gain_dead_zone must be in 0..0.2";
+    if (!(heat_gain_lag_ticks >= 0.0 && heat_gain_lag_ticks <= 10.0)) return "heat_gain_lag_ticks must be in 0..10";
+    if (!(heat_gain_adapt_s >= 0.1 && heat_gain_adapt_s <= 1000.0)) return "heat_gain_adapt_s must be in 0.1..1000";
     return nullptr;
   }
 };
@@ -104,6 +133,7 @@ class PreviewCore {
   static constexpr uint8_t kMaxGrid = 32;  // the default 16 s horizon on a 0.5 s grid
   static constexpr uint8_t kCandidates = 7;
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
+  static constexpr uint8_t kObserveTicks = 10;  // ticks between samples of the heat-loss observer
 
   // curves and thermal: built from p and fx. model_valid: the caller's verdict on p and fx
   // (Params::check, Effects::check), e.g. a board's Controller built from the same set (on AVR a
@@ -135,7 +165,14 @@ class PreviewCore {
         track_next_(from_double<T>(cfg.track_s + cfg.dt)),
         dt_(cfg.dt),
         grid_s_(cfg.grid_s),
-        v_supply_(cfg.v_supply) {
+        v_supply_(cfg.v_supply),
+        grid_ticks_(from_double<T>(cfg.grid_s / cfg.dt)),
+        heat_(p, cfg.dt, kObserveTicks * cfg.dt, cfg.heat_gain_memory_s > 0.0 ? cfg.heat_gain_memory_s : 1.0,
+              cfg.heat_gain_adapt_s, cfg.heat_gain_dead_zone),
+        // The regression's means move by ~1e-5 a sample: a scalar that rounds 1e-6 to zero
+        // (Q16.16) cannot hold them, and runs without the observer (docs/control.md).
+        observe_heat_(cfg.heat_gain_memory_s > 0.0 && !(from_double<T>(1e-6) == T(0))),
+        lag_ticks_(from_double<T>(cfg.heat_gain_lag_ticks)) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -153,6 +190,7 @@ class PreviewCore {
   SMA_PREVIEW_NOINLINE void reset(T T0, T eps0) {
     est_.reset(T0, eps0);
     T_est_ = T0;
+    T_prev_ = T0;
     eps_est_ = est_.eps();
     deps_ = T(0);
     d_ = T(0);
@@ -194,6 +232,7 @@ class PreviewCore {
     ref_now_ = ref;
     // Integral action: the offset between the wire and the model wire.
     d_ = d_ + d_alpha_ * ((measured - mech_.displacement(eps_est_)) - d_);
+    if (observing() && ++observe_tick_ >= kObserveTicks) take_heat_sample(measured);
     follow_reference(ref);
     if (switch_due_ > 0 && --switch_due_ == 0) switch_branch();
     ++elapsed_ticks_;
@@ -208,22 +247,21 @@ class PreviewCore {
     if (!is_finite(r_lead)) r_lead = ref;
     const T T_cmd = branch_temperature(heating_, est_, T_est_, clamp(r_lead, T(0), mech_.g));
     const T slope = (T_cmd - T_est_) * inv_track_;
-    T v = min(thermal_.voltage_for(T_est_, slope, eps_est_, deps_), v_max_);  // eq 17
+    // Eq 17, with the observed heat loss: k^ G (T - T_a) = G (T - T_a) + C (extra slope).
+    const T extra = observing() ? heat_.loss_correction() * inv_dt_ * (T_est_ - thermal_.T_a) : T(0);
+    T v = min(thermal_.voltage_for(T_est_, slope + extra, eps_est_, deps_), v_max_);
     if (!is_finite(v)) v = T(0);
     if (!heating_ && pwm_top_ > 0 && T_est_ > est_.loop().T_MSi) v = pwm_level_below(v);  // loop(): prepared above
     v_ = v;
     // The model wire follows the commanded voltage.
-    T_est_ = wire_step_(T_est_, v, eps_est_, deps_);
-    const T eps_new = est_.update(T_est_);
-    deps_ = (eps_new - eps_est_) * inv_dt_;
-    eps_est_ = eps_new;
+    model_wire_step(v);
     return v_;
   }
 
   // One grid step of the plan in progress (bounded work: one thermal step, one hysteresis
   // update, at most one future() call); true when it completed a plan (and decided). The
   // first call after a tick samples the next tick's lead reference instead (so the tick itself
-  // evaluates no future reference). With
+  // evaluates no future reference), and runs the heat-loss sample the tick took if any. With
   // plan_in_step = false the board calls it between ticks, as often as its idle time allows;
   // future(tau) is then the reference tau seconds after the last step()'s tick. Not from an
   // interrupt that can preempt step().
@@ -233,8 +271,12 @@ class PreviewCore {
     if (!plan_in_step_ && !lead_ready_) {  // first call after a tick: the next tick's lead sample (track_s ahead)
       lead_ = future(track_next_);
       lead_ready_ = true;
+      // A heat-loss sample of the last tick with it (a lead sample is cheap; the grid steps of
+      // the other calls keep their pace).
+      if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();
       return false;
     }
+    if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();  // in-step planning
     if (j_ >= n_grid_ && next_candidate()) return true;
     sim_step(future);
     return false;
@@ -245,13 +287,36 @@ class PreviewCore {
   T offset() const { return d_; }                 // measured - model position, mm
   bool heating() const { return heating_; }       // the branch the controller drives
   uint16_t plans() const { return plans_; }       // completed plans (tests, telemetry)
+  T heat_loss_gain() const { return heat_.gain(); }  // the wire's heat loss against the model's
 
  private:
   T hold_off() {
     v_ = T(0);
-    T_est_ = wire_step_(T_est_, T(0), eps_est_, T(0));
+    model_wire_heat(T(0), T(0));
     eps_est_ = est_.update(T_est_);
     return v_;
+  }
+
+  bool observing() const { return SMA_PREVIEW_HEAT_LOSS && observe_heat_; }
+
+  // One tick of the model wire's temperature under voltage v (eq 1, with the observed heat loss
+  // k^ G) and of the observer's sensitivity along it.
+  void model_wire_heat(T v, T deps) {
+    T_prev_ = T_est_;
+    T next = wire_step_(T_est_, v, eps_est_, deps);
+    if (observing()) {
+      next = next - heat_.loss_correction() * (T_est_ - thermal_.T_a);
+      heat_.tick(next - thermal_.T_a);
+    }
+    T_est_ = next;
+  }
+
+  // The same with the model wire's hysteresis.
+  void model_wire_step(T v) {
+    model_wire_heat(v, deps_);
+    const T eps_new = est_.update(T_est_);
+    deps_ = (eps_new - eps_est_) * inv_dt_;
+    eps_est_ = eps_new;
   }
 
   // The highest PWM level at or below v (the heater's duty = (V / v_supply)^2). A hundredth of
@@ -261,6 +326,59 @@ class PreviewCore {
     const double x = to_double(v) / v_supply_, top = pwm_top_;
     const double n = ::floor(x * x * top + 0.01);
     return from_double<T>(v_supply_ * ::sqrt(n / top));
+  }
+
+  // The position's slope (mm/K) on the heating curve (eq 4) at the model wire; 0 where the model
+  // wire is off that curve (a flat stage) or the curve is flat.
+  T heating_slope() const {
+    const T Tw = T_est_;
+    if (abs(curves_.eps_heat(Tw) - eps_est_) > T(0.002)) return T(0);
+    return mech_.g * (curves_.eps_heat(Tw + T(0.5)) - curves_.eps_heat(Tw - T(0.5)));
+  }
+
+  // The tick's part of a heat-loss sample (cheap): is this a sample, and what it saw. The rest
+  // (curves, regression, re-anchoring) runs in plan_step(), between ticks on a board.
+  void take_heat_sample(T measured) {
+    observe_tick_ = 0;
+    const T x_model = mech_.displacement(eps_est_);
+    const T x_wire = x_model + d_;  // the measurement low-passed (the offset estimate's filter)
+    const bool rising = x_wire - obs_meas_ > T(0.001) && x_model - obs_model_ > T(0.001);
+    obs_meas_ = x_wire;
+    obs_model_ = x_model;
+    // Only while both wires transform on the heating curve: the position then says the wire's
+    // temperature now. (After a peak it keeps the peak's; on a cooling loop it depends on where
+    // each wire reversed.)
+    if (!rising || !est_.heating()) return;
+    obs_pending_ = true;
+    obs_x_ = measured;
+    // The measurement sees the commands of heat_gain_lag_ticks ago: the model wire as it was
+    // then (first order in its last step), else a heating transient reads as a gap.
+    obs_T_then_ = T_est_ - lag_ticks_ * (T_est_ - T_prev_);
+  }
+
+  // One sample of the heat-loss observer: the wire's temperature the measured position gives on
+  // the heating curve (eq 15 of the fraction, eq 14), minus the model wire's (at most 10 K apart).
+  SMA_PREVIEW_NOINLINE void observe_heat() {
+    obs_pending_ = false;
+    const T slope = heating_slope();
+    if (!(abs(slope) > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
+    const T gap = clamp(curves_.heat_temperature(mech_.fraction(obs_x_)) - obs_T_then_, T(-10), T(10));
+    const T k_before = heat_.gain();
+    heat_.add(gap, slope);
+    // A new gain changes the model wire's past: its temperature now is the one the new gain
+    // gives, to first order T + dk S. Both wires are on the heating curve (eq 4, no loop memory),
+    // so the model wire is re-anchored there, and the offset keeps the measured position.
+    const T T_new = T_est_ + (heat_.gain() - k_before) * heat_.sensitivity();
+    if (T_new != T_est_) {
+      const T x_old = mech_.displacement(eps_est_);
+      const T below = T_new - T(0.01);
+      est_.reset(below, curves_.eps_heat(below));
+      eps_est_ = est_.update(T_new);
+      T_prev_ = T_prev_ + (T_new - T_est_);
+      T_est_ = T_new;
+      obs_model_ = mech_.displacement(eps_est_);
+      d_ = d_ + (x_old - obs_model_);
+    }
   }
 
   // The branch follows the reference once it has moved with it: a turn against the branch
@@ -386,8 +504,10 @@ class PreviewCore {
     }
     const T target = branch_temperature(sim_heat_, sim_h_, sim_T_, r);
     // Exact limits of eq 1 over one grid step: full power, or none.
-    const T hi = grid_step_(sim_T_, v_max_);
-    const T lo = grid_step_(sim_T_, T(0));
+    // (the observed heat loss to first order over the grid step: (k^ - 1) G grid_s / C)
+    const T loss = observing() ? heat_.loss_correction() * grid_ticks_ * (sim_T_ - thermal_.T_a) : T(0);
+    const T hi = grid_step_(sim_T_, v_max_) - loss;
+    const T lo = grid_step_(sim_T_, T(0)) - loss;
     sim_T_ = clamp(target, lo, hi);
     // Error in 0.1 mm (Q16.16 keeps its square); e^2 (1 + e^2): errors past 0.1 mm weigh more,
     // so the plan trades a long small error for a short large one the way the max metric does.
@@ -421,6 +541,15 @@ class PreviewCore {
   uint16_t pwm_top_;
   T track_, track_next_;  // track_s, and track_s + dt (the next tick's lead, sampled between ticks)
   double dt_, grid_s_, v_supply_;
+  T grid_ticks_;  // grid_s / dt
+  HeatLossObserver<T> heat_;
+  bool observe_heat_;
+  uint8_t observe_tick_ = 0;
+  T obs_meas_ = T(0), obs_model_ = T(0);  // positions at the observer's last sample
+  bool obs_pending_ = false;              // a sample waits for plan_step()
+  T obs_x_ = T(0), obs_T_then_ = T(0);    // its measurement and model wire temperature
+  T lag_ticks_;
+  T T_prev_ = T(22);  // the model wire before its last step
   uint8_t switch_at_[kCandidates];
   // Model wire.
   T T_est_ = T(22), eps_est_ = T(0), deps_ = T(0), d_ = T(0), v_ = T(0);
