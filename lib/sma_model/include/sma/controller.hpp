@@ -98,6 +98,12 @@ class Controller {
     return v_;
   }
 
+  // Between ticks, after the output is written: work of a later tick done ahead of time
+  // (InverseModel::prepare_reversal), so that it is not inside the control section.
+  void prepare_next_tick() {
+    if (mode_ == Mode::Feedforward || mode_ == Mode::FeedforwardPid) inverse_.prepare_reversal();
+  }
+
   // Estimated wire temperature (eq 1 on the commanded voltage), deg C.
   T wire_temperature() const { return T_wire_; }
   // Takes over the estimate of a controller that drove the wire meanwhile (the preview): the

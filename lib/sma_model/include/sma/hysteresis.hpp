@@ -214,7 +214,7 @@ class Hysteresis {
 
   // (Out of line: the controller's constructor and mode change both reset.)
   __attribute__((noinline)) void reset(T T0, T eps0 = T(0)) {
-    eps_ = clamp(eps0, T(0), T(1));
+    eps_ = clamp01(eps0);
     T_last_ = T0;
     heating_ = false;
     transformed_ = false;
@@ -252,7 +252,8 @@ class Hysteresis {
   // eq 16 and has_cooling_stage. The inverse model inverts the branch with it on a reversal tick
   // and the two divisions of the rates wait until the memory or loop() needs them: the
   // reversal, the controller's most expensive tick, does not pay for them.
-  const CoolingLoop<T>& prepare_cooling_shape() {
+  // (Out of line: the inverse's tick and the between-ticks preparation share one copy.)
+  __attribute__((noinline)) const CoolingLoop<T>& prepare_cooling_shape() {
     if (heating_ && opens_loop() && !peak_ready_) {
       start_loop(T_last_, transformed_);
       peak_ready_ = true;

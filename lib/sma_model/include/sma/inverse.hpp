@@ -142,6 +142,12 @@ class InverseModel {
     return v1;
   }
 
+  // Between ticks (after the output is written): the loop a reversal at the memory's present
+  // point would open, built now (Hysteresis::prepare_cooling_shape), so that the tick whose
+  // reference reverses does not build it inside the control section. Changes no number: the
+  // reversal uses the same loop it would have built; a heating that goes on discards it.
+  void prepare_reversal() { memory_.prepare_cooling_shape(); }
+
   T desired_temperature() const { return T_d_; }
   T filtered_temperature() const { return T_f_; }
   T model_temperature() const { return T_m_; }
