@@ -163,8 +163,11 @@ class PhaseCurves {
   T martensite_start(T T_i, bool known, T eh_i) const {
     if (T_i > knot_T_[0] && T_i < knot_T_[n_knots_ - 1]) {  // T_s < T_i < T_f
       const T nt = (T_i - knot_T_[0]) * inv_width_sf_;                                  // eq 9
-      // Eqs 8 and 7: T_MSf + (T_MSs - T_MSf) n(nt), the difference folded into m_.
-      return T_MSf_ + ((((m_[5] * nt + m_[4]) * nt + m_[3]) * nt + m_[2]) * nt + m_[1]) * nt + m_[0];
+      // Eqs 8 and 7: T_MSf + (T_MSs - T_MSf) n(nt), the difference folded into m_ (Horner's
+      // rule as a loop: flash on the Uno; a reversal's loop is built between ticks).
+      T n = m_[5];
+      for (uint8_t k = 4; k > 0; --k) n = n * nt + m_[k];
+      return T_MSf_ + n * nt + m_[0];
     }
     return q_ * (known ? eh_i : eps_heat(T_i)) + e_;  // eq 10
   }
