@@ -82,6 +82,10 @@ static volatile uint16_t g_adc_sum_lo = 0;
 static volatile uint8_t g_adc_sum_hi = 0;
 static volatile uint8_t g_adc_n = 0;
 static volatile uint8_t g_adc_bad = 0;
+// The chain pauses during the control section (its ~12 interrupts there would cost ~1k cycles),
+// flags in GPIOR1 (no RAM, single-cycle bit access): kAdcHold = the conversion under way is summed
+// but starts no next one, kAdcStopped = it has done so.
+static const uint8_t kAdcHold = 0, kAdcStopped = 1;
 
 ISR(ADC_vect) {
   const uint16_t a = ADC;
@@ -92,7 +96,8 @@ ISR(ADC_vect) {
     ++g_adc_n;
     if (a < kAdcLo || a > kAdcHi) ++g_adc_bad;
   }
-  ADCSRA |= _BV(ADSC);  // next conversion (13 ADC clocks at 125 kHz: 104 us)
+  if (GPIOR1 & _BV(kAdcHold)) GPIOR1 |= _BV(kAdcStopped);
+  else ADCSRA |= _BV(ADSC);  // next conversion (13 ADC clocks at 125 kHz: 104 us)
 }
 
 // ---- UART0: interrupt-driven rings, 8N1 --------------------------------------------------------
@@ -269,9 +274,14 @@ static void __attribute__((noinline)) control_tick() {
   g_adc_sum_hi = 0;
   g_adc_n = 0;
   g_adc_bad = 0;
+  GPIOR1 = _BV(kAdcHold);
   sei();
   pwm_write(g_board.control(sum, n, bad));
   GPIOR0 = 2;
+  cli();
+  if (GPIOR1 & _BV(kAdcStopped)) ADCSRA |= _BV(ADSC);  // the chain resumes
+  GPIOR1 = 0;
+  sei();
   wdt_reset();
   g_board.report();
   GPIOR0 = 3;

@@ -2,6 +2,7 @@
 // state machine: eps in [0, 1], monotone branches, rate independence, loop memory.
 #include <gtest/gtest.h>
 #include <math.h>
+#include <string.h>
 #include <vector>
 #include "sma/hysteresis.hpp"
 #include "sma_host/plant.hpp"
@@ -279,6 +280,48 @@ TEST(Hysteresis, FloatCosRampInvMatchesDouble) {
   EXPECT_EQ(sma::cos_ramp_inv(1.0f), 1.0f);
   EXPECT_EQ(sma::cos_ramp_inv(-3.0f), 0.0f);
   EXPECT_EQ(sma::cos_ramp_inv(NAN), 0.0f);
+}
+
+// float's clamp01 works on the bit pattern: the same float as the soft-float clamp for the edges
+// (signed zeros, 1, infinities, NaNs of both signs, denormals) and random bit patterns.
+TEST(Hysteresis, FloatClamp01IsClampToTheUnitInterval) {
+  auto same = [](float x) {
+    const float a = sma::clamp01(x), b = sma::clamp(x, 0.0f, 1.0f);
+    return sma::float_bits(a) == sma::float_bits(b);
+  };
+  const float edges[] = {0.0f, -0.0f, 1.0f, -1.0f, 0.5f, 1e-45f, -1e-45f, 0.99999994f, 1.0000001f,
+                         INFINITY, -INFINITY, NAN, -NAN, 3.0f, -3.0f};
+  for (float x : edges) EXPECT_TRUE(same(x)) << x;
+  uint32_t s = 12345u;
+  for (int i = 0; i < 1000000; ++i) {
+    s = s * 1664525u + 1013904223u;
+    float x;
+    memcpy(&x, &s, 4);
+    ASSERT_TRUE(same(x)) << std::hex << s;
+  }
+  EXPECT_EQ(sma::float_bits(sma::clamp01(-0.0f)), 0u);  // +0: never a negative fraction
+}
+
+// The PID's sign and magnitude tests on float bits agree with float compares for every number
+// that is not NaN (signed zeros, denormals, infinities, random bit patterns).
+TEST(Hysteresis, FloatSignTestsAreCompares) {
+  const float limits[] = {0.0f, 0.05f, 1e-45f, 1.0f, INFINITY};
+  auto check = [&](float x) {
+    if (x != x) return true;
+    bool ok = sma::positive(x) == (x > 0.0f) && sma::negative(x) == (x < 0.0f);
+    for (float l : limits) ok = ok && sma::abs_below(x, l) == (fabsf(x) < l);
+    return ok;
+  };
+  const float edges[] = {0.0f, -0.0f, 1e-45f, -1e-45f, 0.05f, -0.05f, 0.049999997f, -0.050000004f,
+                         INFINITY, -INFINITY};
+  for (float x : edges) EXPECT_TRUE(check(x)) << x;
+  uint32_t s = 54321u;
+  for (int i = 0; i < 1000000; ++i) {
+    s = s * 1664525u + 1013904223u;
+    float x;
+    memcpy(&x, &s, 4);
+    ASSERT_TRUE(check(x)) << std::hex << s;
+  }
 }
 
 // float's own cos_ramp (a polynomial, scalar.hpp) against double cos: within float rounding

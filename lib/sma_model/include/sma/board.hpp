@@ -210,6 +210,7 @@ class Board {
 
   // After control() (and the PWM written): the tick's telemetry row and fault announcement.
   SMA_NOINLINE void report() {
+    ctl().prepare_next_tick();  // a reversal's loop ahead of its tick (Controller)
     if (state_.s.tele) {
       if (v_.x.header_due_ && !state_.s.plot) {
         reply_.x.clear();

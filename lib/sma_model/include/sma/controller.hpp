@@ -95,7 +95,24 @@ class Controller {
     if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? inverse_.mechanics().fraction(measured, T_wire_) : T(0);
     v_ = compute(ref, measured);
     T_wire_ = inverse_.wire_step()(T_wire_, v_, eps_meas_);
+    hold_ready_ = false;  // V_hold was the old estimate's
     return v_;
+  }
+
+  // Between ticks, after the output is written: the feedforward's model wire and the loop of a
+  // possible reversal (InverseModel::advance_model, prepare_reversal), work that the next tick
+  // would otherwise do inside the control section. Changes no number.
+  void prepare_next_tick() {
+    if (mode_ == Mode::Feedforward || mode_ == Mode::FeedforwardPid) {
+      inverse_.advance_model();
+      inverse_.prepare_reversal();
+    }
+    // The next tick's V_hold at the estimate it will start from (eq 1's R: with a
+    // phase-dependent resistance it needs the next measurement's fraction).
+    if (mode_ == Mode::FeedforwardPid && inverse_.thermal().plain) {
+      hold_ = thermal_hold();
+      hold_ready_ = true;
+    }
   }
 
   // Estimated wire temperature (eq 1 on the commanded voltage), deg C.
@@ -104,6 +121,7 @@ class Controller {
   // estimate is what the latch watches and where the inverse model restarts.
   void set_wire_temperature(T Tw) {
     if (is_finite(Tw)) T_wire_ = Tw;
+    hold_ready_ = false;
   }
 
   T v1() const { return v1_; }
@@ -119,7 +137,8 @@ class Controller {
   }
   // The voltage that holds the estimated wire temperature (eq 17, dT/dt = 0), at the measured
   // fraction: the same resistance R(eps) the estimate uses (phase-dependent resistance).
-  T thermal_hold() const { return inverse_.thermal().hold_voltage(T_wire_, eps_meas_); }
+  // (Out of line: one copy for the tick and prepare_next_tick, flash on the Uno.)
+  __attribute__((noinline)) T thermal_hold() const { return inverse_.thermal().hold_voltage(T_wire_, eps_meas_); }
 
   T compute(T ref, T measured) {
     v1_ = T(0);
@@ -143,7 +162,7 @@ class Controller {
         // it cools, the PID may not heat: heating from a cooling branch only moves along a
         // flat stage (eq 4). V_hold (eq 17 with dT/dt = 0) keeps the estimated wire
         // temperature where it is.
-        const T v_hold = min(thermal_hold(), v_max_);
+        const T v_hold = min(hold_ready_ ? hold_ : thermal_hold(), v_max_);
         T lo = -v1_, hi = v_max_ - v1_;
         if (inverse_.heating()) lo = max(lo, v_hold - v1_);
         else hi = min(hi, max(v_hold - v1_, lo));
@@ -162,6 +181,8 @@ class Controller {
   Pid<T> pid_;
   T T_wire_;
   T eps_meas_ = T(0);  // austenite fraction of the last measurement
+  T hold_ = T(0);      // thermal_hold() computed between ticks (prepare_next_tick)
+  bool hold_ready_ = false;
   T v_max_;
   bool valid_;
   Mode mode_ = Mode::Off;

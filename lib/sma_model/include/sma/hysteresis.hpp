@@ -163,8 +163,11 @@ class PhaseCurves {
   T martensite_start(T T_i, bool known, T eh_i) const {
     if (T_i > knot_T_[0] && T_i < knot_T_[n_knots_ - 1]) {  // T_s < T_i < T_f
       const T nt = (T_i - knot_T_[0]) * inv_width_sf_;                                  // eq 9
-      // Eqs 8 and 7: T_MSf + (T_MSs - T_MSf) n(nt), the difference folded into m_.
-      return T_MSf_ + ((((m_[5] * nt + m_[4]) * nt + m_[3]) * nt + m_[2]) * nt + m_[1]) * nt + m_[0];
+      // Eqs 8 and 7: T_MSf + (T_MSs - T_MSf) n(nt), the difference folded into m_ (Horner's
+      // rule as a loop: flash on the Uno; a reversal's loop is built between ticks).
+      T n = m_[5];
+      for (uint8_t k = 4; k > 0; --k) n = n * nt + m_[k];
+      return T_MSf_ + n * nt + m_[0];
     }
     return q_ * (known ? eh_i : eps_heat(T_i)) + e_;  // eq 10
   }
@@ -214,7 +217,7 @@ class Hysteresis {
 
   // (Out of line: the controller's constructor and mode change both reset.)
   __attribute__((noinline)) void reset(T T0, T eps0 = T(0)) {
-    eps_ = clamp(eps0, T(0), T(1));
+    eps_ = clamp01(eps0);
     T_last_ = T0;
     heating_ = false;
     transformed_ = false;
@@ -252,7 +255,8 @@ class Hysteresis {
   // eq 16 and has_cooling_stage. The inverse model inverts the branch with it on a reversal tick
   // and the two divisions of the rates wait until the memory or loop() needs them: the
   // reversal, the controller's most expensive tick, does not pay for them.
-  const CoolingLoop<T>& prepare_cooling_shape() {
+  // (Out of line: the inverse's tick and the between-ticks preparation share one copy.)
+  __attribute__((noinline)) const CoolingLoop<T>& prepare_cooling_shape() {
     if (heating_ && opens_loop() && !peak_ready_) {
       start_loop(T_last_, transformed_);
       peak_ready_ = true;

@@ -63,18 +63,18 @@ class InverseModel {
   // Restart at rest: wire at T0 with fraction eps0, reference at its displacement.
   void reset(T T0, T eps0) {
     memory_.reset(T0, eps0);
-    T_d_ = T0;
     T_f_ = T0;
     T_m_ = T0;
+    model_pending_ = false;
     eps_f_ = memory_.eps();
     u_prev_ = mech_.displacement(memory_.eps(), T0);
     u_extreme_ = u_prev_;
-    rate_ = T(0);
     heating_ = true;
   }
 
   // One tick: reference u (mm) -> feedforward V1 in 0..V_max.
   T step(T u) {
+    advance_model();  // the last tick's, where the caller did not run it between ticks
     if (!is_finite(u)) u = u_prev_;  // hold the last reference on NaN
     u_prev_ = u;
     // Branch = sign of du/dt (eq 14), decided against the last extreme of the reference rather
@@ -91,6 +91,8 @@ class InverseModel {
     // k dT/deps / g ~ 0.01 inside the band; T stays within the branch's range), no loop
     // whose length depends on the data.
     const bool expands = kThermalExpansion && mech_.expands;
+    // The desired temperature T_d so far: where the memory walked to.
+    const T T_d = memory_.temperature();
     T e = mech_.fraction(u);  // eq 14 at ambient
     T T_new;
     // The memory walks the same branch from the same fraction e, so where T_new is the branch
@@ -104,8 +106,8 @@ class InverseModel {
           T_new = curves_.heat_temperature(e);
         }
       // Heating can only raise eps: below the current fraction, hold the temperature.
-      on_curve = T_new > T_d_;
-      T_new = max(T_new, T_d_);
+      on_curve = T_new > T_d;
+      T_new = max(T_new, T_d);
     } else {
       // Eq 16 needs only the loop's shape: its rates wait (prepare_cooling_shape).
       const CoolingLoop<T>& loop = memory_.prepare_cooling_shape();
@@ -116,15 +118,14 @@ class InverseModel {
           T_new = curves_.cool_temperature(loop, e);
         }
       // Eq 16 inverts eq 11 only strictly inside the cooling stage.
-      on_curve = T_new < T_d_ && e > T(0) && e < loop.top && curves_.has_cooling_stage(loop);
-      T_new = min(T_new, T_d_);
+      on_curve = T_new < T_d && e > T(0) && e < loop.top && curves_.has_cooling_stage(loop);
+      T_new = min(T_new, T_d);
     }
     if (on_curve) memory_.update(T_new, e);
     else memory_.update(T_new);
-    T_d_ = T_new;
     // The filtered path T_f and its exact slope.
-    rate_ = (T_d_ - T_f_) * inv_tau_;
-    T_f_ = T_f_ + alpha_ * (T_d_ - T_f_);
+    const T rate = (T_new - T_f_) * inv_tau_;
+    T_f_ = T_f_ + alpha_ * (T_new - T_f_);
     // With non-linear thermal effects: the fraction along the filtered path, on the branch the
     // memory is on, i.e. what the wire transforms as it follows T_f (latent heat,
     // phase-dependent resistance). The paper's eq 1 does not need it: skip the work.
@@ -135,17 +136,32 @@ class InverseModel {
       deps_dt = (eps_f - eps_f_) * inv_dt_;
       eps_f_ = eps_f;
     }
-    const T slope = rate_ + (T_f_ - T_m_) * inv_track_;
+    const T slope = rate + (T_f_ - T_m_) * inv_track_;
     T v1 = min(thermal_.voltage_for(T_m_, slope, eps_f_, deps_dt), v_max_);  // eq 17
     if (!is_finite(v1)) v1 = T(0);
-    T_m_ = wire_step_(T_m_, v1, eps_f_, deps_dt);  // the power balance eq 17 inverted
+    v1_ = v1;
+    deps_dt_ = deps_dt;
+    model_pending_ = true;
     return v1;
   }
 
-  T desired_temperature() const { return T_d_; }
+  // The model wire's tick under this tick's V1 (eq 1: the power balance eq 17 inverted). The
+  // V1 of step() does not depend on it, so the board runs it between ticks, after the output is
+  // written; otherwise the next step() runs it first. The same numbers either way.
+  void advance_model() {
+    if (model_pending_) advance_model_now();
+  }
+
+  // Between ticks (after the output is written): the loop a reversal at the memory's present
+  // point would open, built now (Hysteresis::prepare_cooling_shape), so that the tick whose
+  // reference reverses does not build it inside the control section. Changes no number: the
+  // reversal uses the same loop it would have built; a heating that goes on discards it.
+  void prepare_reversal() { memory_.prepare_cooling_shape(); }
+
+  T desired_temperature() const { return memory_.temperature(); }
   T filtered_temperature() const { return T_f_; }
-  T model_temperature() const { return T_m_; }
-  T desired_rate() const { return rate_; }
+  // (After step(): the model wire at the end of its tick, advanced or not.)
+  T model_temperature() const { return model_pending_ ? wire_step_(T_m_, v1_, eps_f_, deps_dt_) : T_m_; }
   bool heating() const { return heating_; }
   const Hysteresis<T>& memory() const { return memory_; }
   const Thermal<T>& thermal() const { return thermal_; }
@@ -160,6 +176,12 @@ class InverseModel {
  private:
   static constexpr int kExpansionSteps = 3;
 
+  // (Out of line: one copy for advance_model's two callers, flash on the Uno.)
+  __attribute__((noinline)) void advance_model_now() {
+    T_m_ = wire_step_(T_m_, v1_, eps_f_, deps_dt_);
+    model_pending_ = false;
+  }
+
   PhaseCurves<T> curves_;
   Thermal<T> thermal_;
   Mechanics<T> mech_;
@@ -167,8 +189,10 @@ class InverseModel {
   WireStep<T> wire_step_;
   T v_max_;
   T inv_dt_, alpha_, inv_tau_, inv_track_, deadband_;
-  T T_d_, T_f_, T_m_, eps_f_, u_prev_, u_extreme_, rate_;
+  T T_f_, T_m_, eps_f_, u_prev_, u_extreme_;
+  T v1_, deps_dt_;      // the last step's V1 and d(eps_f)/dt: the model wire's pending tick
   bool heating_;
+  bool model_pending_;  // T_m_ has not had the last step's tick yet (advance_model)
 };
 
 }  // namespace sma

@@ -49,7 +49,7 @@ struct Mechanics : Expansion<T> {
   // Eq 12 for a wire at temperature Tw.
   T displacement(T eps, T Tw) const { return this->expands ? g * eps - this->lengthening(Tw) : g * eps; }
   // Eq 14, clamped to the physical range 0..1 (a NaN displacement maps to 0).
-  T fraction(T D) const { return clamp(D * inv_g, T(0), T(1)); }
+  T fraction(T D) const { return clamp01(D * inv_g); }
   // Eq 14 for a wire at temperature Tw: the lengthening added back before dividing by g.
   T fraction(T D, T Tw) const { return this->expands ? fraction(D + this->lengthening(Tw)) : fraction(D); }
 };

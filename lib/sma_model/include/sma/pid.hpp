@@ -72,9 +72,10 @@ class Pid {
     const T pd = kp_ * error + d_;
     const T unsat = pd + integral_;
     // Conditional integration: no integration that pushes further into saturation.
-    const bool pushing_up = unsat >= hi && error > T(0);
-    const bool pushing_down = unsat <= lo && error < T(0);
-    if (!pushing_up && !pushing_down && abs(error) < i_zone_)
+    // (error is finite here: sign and magnitude tests without a compare of floats.)
+    const bool pushing_up = positive(error) && unsat >= hi;
+    const bool pushing_down = negative(error) && unsat <= lo;
+    if (!pushing_up && !pushing_down && abs_below(error, i_zone_))
       integral_ = integral_ + ki_dt_ * error;
     integral_ = clamp(integral_, lo, hi);
     return clamp(pd + integral_, lo, hi);
