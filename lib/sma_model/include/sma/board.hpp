@@ -284,23 +284,25 @@ class Board {
     c.dt = 1.0 / Rig::tick_hz();
     return c;
   }
-  static ControllerConfig controller_config() {
-    ControllerConfig c;
-    controller_config(&c);
+  // The controller's config: the rig's tick and V_max, the ffpid mode's default gains. A
+  // constant, checked at compile time (the controller then skips its run-time check).
+  static constexpr ControllerConfig controller_config() {
+    ControllerConfig c{};
+    c.dt = 1.0 / Rig::tick_hz();
+    c.v_max = Rig::v_max();
+    c.gains = console::kGainsFfpid;
     return c;
   }
-  // In place: on AVR the defaults are a copy of a constant in flash (a local ControllerConfig
-  // keeps its 48-byte initial image in .data: RAM for good).
+  static_assert(controller_config().check() == nullptr, "the rig's controller config is valid (ControllerConfig::check)");
+  // In place: on AVR a copy of the constant in flash (a local ControllerConfig keeps its
+  // 48-byte initial image in .data: RAM for good).
   static SMA_NOINLINE void controller_config(ControllerConfig* c) {
 #if defined(__AVR__)
-    static const ControllerConfig kDefault PROGMEM = ControllerConfig();
-    memcpy_P(c, &kDefault, sizeof(ControllerConfig));
+    static const ControllerConfig kConfig PROGMEM = controller_config();
+    memcpy_P(c, &kConfig, sizeof(ControllerConfig));
 #else
-    new (c) ControllerConfig();
+    new (c) ControllerConfig(controller_config());
 #endif
-    c->dt = 1.0 / Rig::tick_hz();
-    c->v_max = Rig::v_max();
-    c->gains = console::default_gains(Mode::FeedforwardPid);
   }
 
   // Effective volts -> PWM counts n of duty (V / V_supply)^2, n / (TOP + 1); below one count: 0.
@@ -392,7 +394,7 @@ class Board {
     static_assert(sizeof(SensorPredictor<T>) >= sizeof(ControllerConfig), "config scratch");
     ControllerConfig* cfg = reinterpret_cast<ControllerConfig*>(static_cast<void*>(&models_.m.sensor));
     controller_config(cfg);
-    new (&models_.m.ctl) Ctl(p, fx, *cfg);
+    new (&models_.m.ctl) Ctl(p, fx, *cfg, CheckedConfig());
     if (Rig::compensate())
       new (&models_.m.sensor) SensorPredictor<T>(ctl().inverse().curves(), p, fx, 1.0 / Rig::tick_hz());
     if (kPreview) {
