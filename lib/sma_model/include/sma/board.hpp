@@ -556,11 +556,12 @@ class Board {
     new (plan) TrainingPlan();
 #endif
     if (slope > 0.0) plan->slope = slope;
-    gen_.train.end_ticks = static_cast<uint32_t>(plan->duration() * Rig::tick_hz()) + 1u;
+    const double length_s = plan->duration();
+    gen_.train.end_ticks = static_cast<uint32_t>(length_s * Rig::tick_hz()) + 1u;
     v_.x.training_ = true;
     v_.x.run_start_ = v_.x.ticks_;
     reply_.x.put(' ');
-    reply_.x.put_fixed(plan->duration(), 1);
+    reply_.x.put_fixed(length_s, 1);
     reply_.x.put_f(SMA_F(" s"));
   }
   SMA_NOINLINE float training_voltage(float t) { return static_cast<float>(gen_.train.plan.voltage_at(t)); }
