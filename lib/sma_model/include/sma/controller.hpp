@@ -57,17 +57,6 @@ class Controller {
   Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg, CheckedConfig)
       : Controller(p, fx, cfg, true) {}
 
- private:
-  Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg, bool cfg_ok)
-      : cfg_(cfg),
-        inverse_(p, fx, with_dt(cfg.inverse, cfg.dt, cfg.v_max)),
-        pid_(cfg.gains, cfg.dt),
-        T_wire_(from_double<T>(p.T_amb + fx.ambient_offset_K)),
-        v_max_(from_double<T>(cfg.v_max)),
-        valid_(cfg_ok && p.check() == nullptr && fx.check() == nullptr) {}
-
- public:
-
   // False when built from a non-physical set (Params/Effects/ControllerConfig::check()): the
   // controller then stays Off and outputs 0 V whatever it is asked.
   bool valid() const { return valid_; }
@@ -124,6 +113,15 @@ class Controller {
   const InverseModel<T>& inverse() const { return inverse_; }
 
  private:
+  // `cfg_ok`: the config's check(), done by the caller (at compile time for CheckedConfig).
+  Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg, bool cfg_ok)
+      : cfg_(cfg),
+        inverse_(p, fx, with_dt(cfg.inverse, cfg.dt, cfg.v_max)),
+        pid_(cfg.gains, cfg.dt),
+        T_wire_(from_double<T>(p.T_amb + fx.ambient_offset_K)),
+        v_max_(from_double<T>(cfg.v_max)),
+        valid_(cfg_ok && p.check() == nullptr && fx.check() == nullptr) {}
+
   static InverseConfig with_dt(InverseConfig c, double dt, double v_max) {
     c.dt = dt;
     c.v_max = v_max;

@@ -158,11 +158,11 @@ class Safety {
 
   // The link timeout in ticks, at least 1 when there is one (0: none).
   static constexpr uint32_t link_ticks(const SafetyConfig& cfg) {
-    return !(cfg.link_timeout_s > 0.0) ? 0
-           : cfg.link_timeout_s / cfg.dt >= 4.0e9 ? UINT32_C(4000000000)
-           : static_cast<uint32_t>(cfg.link_timeout_s / cfg.dt + 0.5) == 0
-               ? 1
-               : static_cast<uint32_t>(cfg.link_timeout_s / cfg.dt + 0.5);
+    if (!(cfg.link_timeout_s > 0.0)) return 0;
+    const double ticks = cfg.link_timeout_s / cfg.dt;
+    if (ticks >= 4.0e9) return UINT32_C(4000000000);
+    const uint32_t n = static_cast<uint32_t>(ticks + 0.5);
+    return n > 0 ? n : 1;
   }
 
   SafetyConfig cfg_;
