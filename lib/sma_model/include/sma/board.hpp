@@ -76,7 +76,8 @@ class Board {
   typedef ReferenceGen<T> Gen;
   typedef console::LineBuffer::Status LineStatus;
 
-  explicit Board(Hw hw = Hw()) : store_(hw), safety_(safety_config()) {
+  explicit Board(Hw hw = Hw()) : store_(hw) {
+    initial_safety(&safety_.x);
     initial_state(&state_.s);
     state_.s.tlim_C = Rig::t_limit_C();
 #if SMA_CONSOLE_PREVIEW
@@ -92,7 +93,7 @@ class Board {
     build_models();
     start_reference();
     live_.x.temp_C = to_double(ctl().wire_temperature());
-    safety_.boot(watchdog_reset);
+    safety_.x.boot(watchdog_reset);
     reply_.x.clear();
     reply_.x.put_f(banner_f);
     send();
@@ -103,7 +104,7 @@ class Board {
   // One received byte. True when a line (or a bad line) is complete: the caller stops reading and
   // calls handle_line() when it has the time (the slowest reply takes ~2 ms on the Uno).
   bool rx(char c) {
-    safety_.on_rx();
+    safety_.x.on_rx();
     const LineStatus st = line_.x.push(c);
     if (st == LineStatus::Pending) return false;
     v_.x.waiting_ = st;
@@ -117,7 +118,7 @@ class Board {
     if (st == LineStatus::Line) {
       console::Command c;
       const bool rows_before = state_.s.tele && !state_.s.plot;
-      if (console::execute(line_.x.line(), state_.s, safety_.fault(), reply_.x, limits(), &c)) {
+      if (console::execute(line_.x.line(), state_.s, safety_.x.fault(), reply_.x, limits(), &c)) {
         if (c.op == console::Op::Status) console::status_line(reply_.x, state_.s, live_.x);
         if (Rig::model() && console::is_model_op(c.op)) {  // run_model_op() replies
           v_.x.model_op_ = c.op;
@@ -189,8 +190,8 @@ class Board {
     in.wire_temp_C = static_cast<float>(to_double(wire_temperature()));
     in.command_v = static_cast<float>(to_double(v_cmd));
     in.heating = state_.s.heat;
-    const float v = static_cast<float>(safety_.gate(in));
-    if (safety_.tripped() && state_.s.heat) {
+    const float v = static_cast<float>(safety_.x.gate(in));
+    if (safety_.x.tripped() && state_.s.heat) {
       v_.x.fault_due_ = true;
       state_.s.heat = false;
       state_.s.training = false;
@@ -204,7 +205,7 @@ class Board {
     live_.x.ref_mm = static_cast<float>(to_double(ref));
     live_.x.v = v;
     live_.x.temp_C = in.wire_temp_C;
-    live_.x.fault = safety_.fault();
+    live_.x.fault = safety_.x.fault();
     return v_.x.counts_;
   }
 
@@ -260,7 +261,7 @@ class Board {
 
   // ---- read access (tests, the host) -------------------------------------------------------------
   const console::State& state() const { return state_.s; }
-  const Safety& safety() const { return safety_; }
+  const Safety& safety() const { return safety_.x; }
   const console::Live& live() const { return live_.x; }
   const Ctl& controller() const { return ctl(); }
   console::Limits limits() const {
@@ -276,8 +277,8 @@ class Board {
   bool training() const { return v_.x.training_; }
   storage::Store<Hw>& store() { return store_; }
 
-  static SafetyConfig safety_config() {
-    SafetyConfig c;
+  static constexpr SafetyConfig safety_config() {
+    SafetyConfig c{};
     c.t_limit_C = Rig::t_limit_C();
     c.sensor_v_min = Rig::sensor_v_min();
     c.sensor_v_max = Rig::sensor_v_max();
@@ -285,23 +286,25 @@ class Board {
     c.dt = 1.0 / Rig::tick_hz();
     return c;
   }
-  static ControllerConfig controller_config() {
-    ControllerConfig c;
-    controller_config(&c);
+  // The controller's config: the rig's tick and V_max, the ffpid mode's default gains. A
+  // constant, checked at compile time (the controller then skips its run-time check).
+  static constexpr ControllerConfig controller_config() {
+    ControllerConfig c{};
+    c.dt = 1.0 / Rig::tick_hz();
+    c.v_max = Rig::v_max();
+    c.gains = console::kGainsFfpid;
     return c;
   }
-  // In place: on AVR the defaults are a copy of a constant in flash (a local ControllerConfig
-  // keeps its 48-byte initial image in .data: RAM for good).
+  static_assert(controller_config().check() == nullptr, "the rig's controller config is valid (ControllerConfig::check)");
+  // In place: on AVR a copy of the constant in flash (a local ControllerConfig keeps its
+  // 48-byte initial image in .data: RAM for good).
   static SMA_NOINLINE void controller_config(ControllerConfig* c) {
 #if defined(__AVR__)
-    static const ControllerConfig kDefault PROGMEM = ControllerConfig();
-    memcpy_P(c, &kDefault, sizeof(ControllerConfig));
+    static constexpr ControllerConfig kConfig PROGMEM = controller_config();
+    memcpy_P(c, &kConfig, sizeof(ControllerConfig));
 #else
-    new (c) ControllerConfig();
+    new (c) ControllerConfig(controller_config());
 #endif
-    c->dt = 1.0 / Rig::tick_hz();
-    c->v_max = Rig::v_max();
-    c->gains = console::default_gains(Mode::FeedforwardPid);
   }
 
   // Effective volts -> PWM counts n of duty (V / V_supply)^2, n / (TOP + 1); below one count: 0.
@@ -338,6 +341,11 @@ class Board {
     Zeroed() { memset(static_cast<void*>(&x), 0, sizeof(X)); }
     ~Zeroed() {}
     X x;
+  };
+  union SafetyStore {  // constructed by initial_safety()
+    SafetyStore() {}
+    ~SafetyStore() {}
+    Safety x;
   };
   union StateStore {  // constructed by initial_state()
     StateStore() {}
@@ -393,7 +401,7 @@ class Board {
     static_assert(sizeof(SensorPredictor<T>) >= sizeof(ControllerConfig), "config scratch");
     ControllerConfig* cfg = reinterpret_cast<ControllerConfig*>(static_cast<void*>(&models_.m.sensor));
     controller_config(cfg);
-    new (&models_.m.ctl) Ctl(p, fx, *cfg);
+    new (&models_.m.ctl) Ctl(p, fx, *cfg, CheckedConfig());
     if (Rig::compensate())
       new (&models_.m.sensor) SensorPredictor<T>(ctl().inverse().curves(), p, fx, 1.0 / Rig::tick_hz());
     if (kPreview) {
@@ -437,6 +445,17 @@ class Board {
   template <class X>
   static X read_paper(const X* field) { return *field; }
   static SMA_NOINLINE void paper_params(Params* p) { new (p) Params(); }
+#endif
+
+  // The latch with the rig's config: on AVR a copy of a constant in flash (its stores cost
+  // ~100 B of the static constructor).
+#if defined(__AVR__)
+  static SMA_NOINLINE void initial_safety(Safety* s) {
+    static constexpr Safety kSafety PROGMEM = Safety(safety_config());
+    memcpy_P(s, &kSafety, sizeof(Safety));
+  }
+#else
+  static void initial_safety(Safety* s) { new (s) Safety(safety_config()); }
 #endif
 
   // The console's initial state: on AVR a copy of a constant in flash (constructed in place, its
@@ -522,7 +541,7 @@ class Board {
     v_.x.fault_due_ = false;
     reply_.x.clear();
     reply_.x.put_f(SMA_F("# fault "));
-    reply_.x.put_f(fault_name(safety_.fault()));
+    reply_.x.put_f(fault_name(safety_.x.fault()));
     reply_.x.put_f(SMA_F(": heater off"));
     send();
   }
@@ -538,11 +557,12 @@ class Board {
     new (plan) TrainingPlan();
 #endif
     if (slope > 0.0) plan->slope = slope;
-    gen_.train.end_ticks = static_cast<uint32_t>(plan->duration() * Rig::tick_hz()) + 1u;
+    const double length_s = plan->duration();
+    gen_.train.end_ticks = static_cast<uint32_t>(length_s * Rig::tick_hz()) + 1u;
     v_.x.training_ = true;
     v_.x.run_start_ = v_.x.ticks_;
     reply_.x.put(' ');
-    reply_.x.put_fixed(plan->duration(), 1);
+    reply_.x.put_fixed(length_s, 1);
     reply_.x.put_f(SMA_F(" s"));
   }
   SMA_NOINLINE float training_voltage(float t) { return static_cast<float>(gen_.train.plan.voltage_at(t)); }
@@ -552,8 +572,8 @@ class Board {
   // `rows_before`: rig-log rows were streaming before this command (their header was sent).
   SMA_NOINLINE void apply(const console::Command& c, bool rows_before) {
     using console::Op;
-    if (c.op == Op::Stop) safety_.clear();
-    if (c.op == Op::Tlim) safety_.set_limit(state_.s.tlim_C);
+    if (c.op == Op::Stop) safety_.x.clear();
+    if (c.op == Op::Tlim) safety_.x.set_limit(state_.s.tlim_C);
     if (c.op == Op::Volt || c.op == Op::Train) ctl().set_voltage(from_double<T>(state_.s.volt));
     const Mode m = state_.s.active_mode();
     if (kPreview && m == Mode::Preview && m != ctl().mode()) preview().start(ctl().wire_temperature(), v_.x.last_d_);
@@ -584,7 +604,7 @@ class Board {
   storage::Store<Hw> store_;  // also the board's outputs (Hw)
   ModelStore models_;
   GenStore gen_;
-  Safety safety_;
+  SafetyStore safety_;
   StateStore state_;
   Zeroed<console::LineBuffer> line_;
   Zeroed<console::Reply> reply_;

@@ -38,23 +38,24 @@ struct ControllerConfig {
   PidGains gains;       // for both PID modes (see default_gains())
   InverseConfig inverse;
 
-  const char* check() const {
+  constexpr const char* check() const {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
     if (!(v_max > 0.0 && v_max <= 5.0)) return "v_max must be in 0..5";
     return gains.check();
   }
 };
 
+// Tag of a ControllerConfig whose check() the caller has proven at compile time (the board's
+// own config, a constant: its run-time check is ~300 B of AVR flash).
+struct CheckedConfig {};
+
 template <class T>
 class Controller {
  public:
   Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg)
-      : cfg_(cfg),
-        inverse_(p, fx, with_dt(cfg.inverse, cfg.dt, cfg.v_max)),
-        pid_(cfg.gains, cfg.dt),
-        T_wire_(from_double<T>(p.T_amb + fx.ambient_offset_K)),
-        v_max_(from_double<T>(cfg.v_max)),
-        valid_(p.check() == nullptr && fx.check() == nullptr && cfg.check() == nullptr) {}
+      : Controller(p, fx, cfg, cfg.check() == nullptr) {}
+  Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg, CheckedConfig)
+      : Controller(p, fx, cfg, true) {}
 
   // False when built from a non-physical set (Params/Effects/ControllerConfig::check()): the
   // controller then stays Off and outputs 0 V whatever it is asked.
@@ -130,6 +131,15 @@ class Controller {
   const InverseModel<T>& inverse() const { return inverse_; }
 
  private:
+  // `cfg_ok`: the config's check(), done by the caller (at compile time for CheckedConfig).
+  Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg, bool cfg_ok)
+      : cfg_(cfg),
+        inverse_(p, fx, with_dt(cfg.inverse, cfg.dt, cfg.v_max)),
+        pid_(cfg.gains, cfg.dt),
+        T_wire_(from_double<T>(p.T_amb + fx.ambient_offset_K)),
+        v_max_(from_double<T>(cfg.v_max)),
+        valid_(cfg_ok && p.check() == nullptr && fx.check() == nullptr) {}
+
   static InverseConfig with_dt(InverseConfig c, double dt, double v_max) {
     c.dt = dt;
     c.v_max = v_max;

@@ -20,6 +20,15 @@
 #define SMA_FLASH_TABLE const
 #endif
 
+// One copy of the row reads and the checks, called where the models are built and from the
+// console: inlined, each call site had its own (AVR: -300 B of flash, and the checks' locals off
+// the frame of Board::construct, the deepest stack: +11 B of stack margin).
+#if defined(__AVR__)
+#define SMA_TABLE_NOINLINE __attribute__((noinline))
+#else
+#define SMA_TABLE_NOINLINE
+#endif
+
 namespace sma {
 namespace param {
 
@@ -66,7 +75,7 @@ static_assert(static_cast<uint8_t>(Row::loop_T_ii) == static_cast<uint8_t>(Row::
 static_assert(sizeof(Params::m) == kListSize * sizeof(double), "m is the list m0..m5");
 }  // namespace detail
 
-inline RowInfo row(uint8_t r) {
+SMA_TABLE_NOINLINE inline RowInfo row(uint8_t r) {
   RowInfo i;
 #if defined(__AVR__)
   memcpy_P(&i, &detail::kRows[r], sizeof(RowInfo));
@@ -244,7 +253,7 @@ inline double value_of(const Effects& fx, const RowInfo& i) {
   return *reinterpret_cast<const double*>(reinterpret_cast<const char*>(&fx) + i.slot * sizeof(double));
 }
 
-inline bool in_range(const RowInfo& i, double v) { return v >= i.lo && v <= i.hi; }  // false for NaN
+SMA_TABLE_NOINLINE inline bool in_range(const RowInfo& i, double v) { return v >= i.lo && v <= i.hi; }  // false for NaN
 
 // ---- the message of a violation ------------------------------------------------------------------
 // "<key>: <rule>", e.g. "T_AF: must be > T_AS", "sensor_calibration.gain: must be in 0.2..5",
@@ -274,7 +283,7 @@ inline void put_violation(Out& o, Violation v) {
 // Every Table and List row in its range, above its `above`; then the loops (eqs 7-10): at most
 // kMaxLoopKnots, their peaks T_i increasing strictly inside (T_s, T_f), each T_ii <= its T_i,
 // T_ii and j in their ranges.
-inline param::Violation Params::check() const {
+SMA_TABLE_NOINLINE inline param::Violation Params::check() const {
   using namespace param;
   uint8_t key = 0;
   for (uint8_t r = 0; r < static_cast<uint8_t>(Row::count); ++r) {

@@ -25,7 +25,7 @@ struct PidGains {
   double i_zone_mm = 0.05;   // integrate only while |error| < i_zone_mm (0: always)
 
   // nullptr if usable, else a message naming the gain.
-  const char* check() const {
+  constexpr const char* check() const {
     if (!(kp >= 0.0 && kp < 1000.0)) return "kp must be in 0..1000";
     if (!(ki >= 0.0 && ki < 1000.0)) return "ki must be in 0..1000";
     if (!(kd >= 0.0 && kd < 1000.0)) return "kd must be in 0..1000";

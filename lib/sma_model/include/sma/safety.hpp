@@ -90,15 +90,12 @@ struct SafetyInput {
 
 class Safety {
  public:
-  explicit Safety(const SafetyConfig& cfg = SafetyConfig()) : cfg_(cfg) { set_config(cfg); }
+  // (constexpr: a latch of constant config is a constant the board copies from flash.)
+  constexpr explicit Safety(const SafetyConfig& cfg = SafetyConfig()) : cfg_(cfg), link_ticks_(link_ticks(cfg)) {}
 
   void set_config(const SafetyConfig& cfg) {
     cfg_ = cfg;
-    const double ticks = cfg.link_timeout_s / cfg.dt;
-    link_ticks_ = (cfg.link_timeout_s > 0.0)
-                      ? (ticks >= 4.0e9 ? UINT32_C(4000000000) : static_cast<uint32_t>(ticks + 0.5))
-                      : 0;
-    if (cfg.link_timeout_s > 0.0 && link_ticks_ == 0) link_ticks_ = 1;
+    link_ticks_ = link_ticks(cfg);
   }
   const SafetyConfig& config() const { return cfg_; }
   // The console's `tlim`; false (nothing changes) outside 30..150 or NaN.
@@ -159,11 +156,20 @@ class Safety {
     if (fault_ == Fault::None) fault_ = f;
   }
 
+  // The link timeout in ticks, at least 1 when there is one (0: none).
+  static constexpr uint32_t link_ticks(const SafetyConfig& cfg) {
+    if (!(cfg.link_timeout_s > 0.0)) return 0;
+    const double ticks = cfg.link_timeout_s / cfg.dt;
+    if (ticks >= 4.0e9) return UINT32_C(4000000000);
+    const uint32_t n = static_cast<uint32_t>(ticks + 0.5);
+    return n > 0 ? n : 1;
+  }
+
   SafetyConfig cfg_;
   Fault fault_ = Fault::None;
   uint16_t trips_ = 0;
   uint32_t since_rx_ = 0;
-  uint32_t link_ticks_ = 0;
+  uint32_t link_ticks_;
 };
 
 }  // namespace sma
