@@ -162,7 +162,8 @@ def main():
               (name, ", ".join("%s %.3f" % (r, t["rms_mm"]) for r, t in e["training"].items()),
                e["max_mm_training"], "met" if e["targets"]["all_met"] else "NOT met"))
         for p in e["parameters"] or []:
-            print("  %-12s %-12.5g +- %.3g" % (p.get("name"), p.get("value"), p.get("ci95", float("nan"))))
+            ci = p.get("ci95")  # null: not determined (e.g. a value held at its bound)
+            print("  %-12s %-12.5g +- %.3g" % (p.get("name"), p.get("value"), float("nan") if ci is None else ci))
         for w in e["warnings"]:
             print("  " + w)
         print("| run | offset mm | RMS mm | RMS heating | RMS cooling | max mm | target |")
