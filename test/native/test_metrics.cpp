@@ -9,17 +9,28 @@ namespace {
 
 sma_host::Sample at(double t, double ref, double truth) { return {t, ref, truth, truth, 0, 0, 0}; }
 
+// A run of n samples 10 ms apart whose reference and position are functions of time.
+template <class Ref, class Pos>
+std::vector<sma_host::Sample> run_of(int n, Ref ref, Pos pos) {
+  std::vector<sma_host::Sample> run;
+  for (int k = 0; k < n; ++k) {
+    const double t = 0.01 * k;
+    run.push_back(at(t, ref(t), pos(t)));
+  }
+  return run;
+}
+
+// 0.8 mm, then 0.5 mm from t = 10 s.
+double down_step_ref(double t) { return t < 10.0 ? 0.8 : 0.5; }
+
 // A sine reference whose position lags by 0.01 mm while it rises and leads by 0.02 mm while
 // it falls: the heating numbers see only the first, the cooling one only the second.
 TEST(Metrics, SineSplitsHeatingFromCooling) {
   const double period = 10.0;
-  std::vector<sma_host::Sample> run;
-  for (int k = 0; k <= 4000; ++k) {
-    const double t = 0.01 * k;
-    const double ref = 0.5 + 0.3 * sin(2 * M_PI * t / period);
-    const double rising = cos(2 * M_PI * t / period) > 0;
-    run.push_back(at(t, ref, rising ? ref - 0.01 : ref + 0.02));
-  }
+  const auto ref = [&](double t) { return 0.5 + 0.3 * sin(2 * M_PI * t / period); };
+  const auto run = run_of(4001, ref, [&](double t) {
+    return cos(2 * M_PI * t / period) > 0 ? ref(t) - 0.01 : ref(t) + 0.02;  // rising : falling
+  });
   const sma_host::Metrics m = sma_host::sine_metrics(run, period);
   EXPECT_NEAR(m.max_heat_mm, 0.01, 1e-12);
   EXPECT_NEAR(m.rms_heat_mm, 0.01, 1e-12);
@@ -30,11 +41,7 @@ TEST(Metrics, SineSplitsHeatingFromCooling) {
 // One step up: the position ramps to the setpoint in 1 s (not scored as error: that is the
 // settling), then holds 0.05 mm past it (5 % overshoot of a 1 mm step).
 TEST(Metrics, StepScoresFromArrivalAndReportsOvershoot) {
-  std::vector<sma_host::Sample> run;
-  for (int k = 0; k < 1000; ++k) {
-    const double t = 0.01 * k;
-    run.push_back(at(t, 1.0, t < 1.0 ? t : 1.05));
-  }
+  const auto run = run_of(1000, [](double) { return 1.0; }, [](double t) { return t < 1.0 ? t : 1.05; });
   const sma_host::Metrics m = sma_host::step_metrics(run, 10.0);
   EXPECT_NEAR(m.max_heat_mm, 0.05, 1e-12);
   EXPECT_NEAR(m.rms_heat_mm, 0.05, 1e-12);
@@ -43,40 +50,28 @@ TEST(Metrics, StepScoresFromArrivalAndReportsOvershoot) {
   EXPECT_EQ(m.max_cool_mm, 0.0);
 }
 
-}  // namespace
 
-namespace {
 // A step the position never reaches (it settles 0.1 mm short): that shortfall is its error while
 // heating, not zero.
 TEST(Metrics, StepNeverReachedCountsItsShortfall) {
-  std::vector<sma_host::Sample> run;
-  for (int k = 0; k < 1000; ++k) {
-    const double t = 0.01 * k;
-    run.push_back(at(t, 1.0, fmin(t, 0.9)));
-  }
+  const auto run = run_of(1000, [](double) { return 1.0; }, [](double t) { return fmin(t, 0.9); });
   const sma_host::Metrics m = sma_host::step_metrics(run, 10.0);
   EXPECT_NEAR(m.max_heat_mm, 0.1, 1e-12);
   EXPECT_NEAR(m.rms_heat_mm, 0.1, 1e-12);
   EXPECT_NEAR(m.sse_mm, 0.1, 1e-12);
   EXPECT_EQ(m.overshoot_pct, 0.0);
 }
-}  // namespace
 
-namespace {
 // A down-step 0.8 -> 0.5 mm at t = 10 s where the wire first rises to 0.88 mm in 1 s (the
 // minor-loop rise) and then falls linearly to 0.5 mm by t = 13 s: the whole-run figures see the
 // 0.38 mm error and the 0.08 mm wrong-way move; the paper-style cooling figure, which counts
 // from the first arrival at the setpoint, sees nothing.
 TEST(Metrics, DownStepWrongWayAndWholeRun) {
-  std::vector<sma_host::Sample> run;
-  for (int k = 0; k < 2000; ++k) {
-    const double t = 0.01 * k;
-    double y = 0.8;
-    if (t >= 10.0 && t < 11.0) y = 0.8 + 0.08 * (t - 10.0);
-    else if (t >= 11.0 && t < 13.0) y = 0.88 - 0.19 * (t - 11.0);
-    else if (t >= 13.0) y = 0.5;
-    run.push_back(at(t, t < 10.0 ? 0.8 : 0.5, y));
-  }
+  const auto run = run_of(2000, down_step_ref, [](double t) {
+    if (t >= 10.0 && t < 11.0) return 0.8 + 0.08 * (t - 10.0);
+    if (t >= 11.0 && t < 13.0) return 0.88 - 0.19 * (t - 11.0);
+    return t >= 13.0 ? 0.5 : 0.8;
+  });
   const sma_host::Metrics m = sma_host::step_metrics(run, 10.0);
   EXPECT_NEAR(m.wrong_way_mm, 0.08, 1e-3);
   EXPECT_NEAR(m.max_fall_mm, 0.38, 1e-3);
@@ -99,27 +94,20 @@ TEST(Metrics, DownStepWrongWayAndWholeRun) {
 // away from the next one. Leaving early TOWARDS the next setpoint (up before an up-step) is not
 // wrong-way.
 TEST(Metrics, WrongWayBeforeTheStepIsCounted) {
-  std::vector<sma_host::Sample> run;
-  for (int k = 0; k < 2000; ++k) {
-    const double t = 0.01 * k;
-    double y = 0.8;
-    if (t >= 6.0 && t < 7.0) y = 0.8 + 0.08 * (t - 6.0);
-    else if (t >= 7.0 && t < 10.0) y = 0.88;
-    else if (t >= 10.0 && t < 12.0) y = 0.88 - 0.19 * (t - 10.0);
-    else if (t >= 12.0) y = 0.5;
-    run.push_back(at(t, t < 10.0 ? 0.8 : 0.5, y));
-  }
+  const auto run = run_of(2000, down_step_ref, [](double t) {
+    if (t >= 6.0 && t < 7.0) return 0.8 + 0.08 * (t - 6.0);
+    if (t >= 7.0 && t < 10.0) return 0.88;
+    if (t >= 10.0 && t < 12.0) return 0.88 - 0.19 * (t - 10.0);
+    return t >= 12.0 ? 0.5 : 0.8;
+  });
   const sma_host::Metrics m = sma_host::step_metrics(run, 10.0);
   EXPECT_NEAR(m.wrong_way_mm, 0.0, 1e-9);
   EXPECT_NEAR(m.wrong_way_before_mm, 0.08, 1e-3);
   EXPECT_NEAR(m.max_rise_mm, 0.08, 1e-3);  // the whole-run figures charge it too
 
-  std::vector<sma_host::Sample> up;  // 0.2 then 0.4 mm; the wire leaves 0.2 upwards 2 s early
-  for (int k = 0; k < 2000; ++k) {
-    const double t = 0.01 * k;
-    const double y = t < 8.0 ? 0.2 : t < 10.0 ? 0.2 + 0.1 * (t - 8.0) : 0.4;
-    up.push_back(at(t, t < 10.0 ? 0.2 : 0.4, y));
-  }
+  // 0.2 then 0.4 mm; the wire leaves 0.2 upwards 2 s early.
+  const auto up = run_of(2000, [](double t) { return t < 10.0 ? 0.2 : 0.4; },
+                         [](double t) { return t < 8.0 ? 0.2 : t < 10.0 ? 0.2 + 0.1 * (t - 8.0) : 0.4; });
   EXPECT_NEAR(sma_host::step_metrics(up, 10.0).wrong_way_before_mm, 0.0, 1e-9);
 }
 
@@ -127,14 +115,11 @@ TEST(Metrics, WrongWayBeforeTheStepIsCounted) {
 // reference); the wrong-way excursion is that rise, counted at every peak after the first period.
 TEST(Metrics, SineWrongWayAfterPeak) {
   const double period = 10.0;
-  std::vector<sma_host::Sample> run;
-  for (int k = 0; k <= 4000; ++k) {
-    const double t = 0.01 * k;
-    const double ref = 0.45 - 0.25 * cos(2 * M_PI * t / period);
+  const auto ref = [&](double t) { return 0.45 - 0.25 * cos(2 * M_PI * t / period); };
+  const auto run = run_of(4001, ref, [&](double t) {
     const double since_peak = fmod(t + 0.5 * period, period);  // peaks at 5, 15, 25, 35 s
-    const double y = since_peak < 1.0 ? 0.7 + 0.05 * since_peak : ref;
-    run.push_back(at(t, ref, y));
-  }
+    return since_peak < 1.0 ? 0.7 + 0.05 * since_peak : ref(t);
+  });
   const sma_host::Metrics m = sma_host::sine_metrics(run, period);
   EXPECT_NEAR(m.wrong_way_mm, 0.05, 1e-3);
   EXPECT_EQ(m.max_rise_mm, 0.0);  // the bump is entirely in the falling half
@@ -142,24 +127,15 @@ TEST(Metrics, SineWrongWayAfterPeak) {
   EXPECT_NEAR(m.max_fall_mm, 0.75 - (0.45 + 0.25 * cos(2 * M_PI / period)), 2e-3);
   EXPECT_NEAR(m.max_mm, m.max_fall_mm, 1e-12);
 }
-}  // namespace
 
-namespace {
 // Overshoot past each new setpoint within a window after its step: an up-step to 1.0 that
 // passes it by 0.03 mm at 2 s, a down-step to 0.4 that dips 0.02 mm below at 3 s and later (12 s
 // into the step, outside a 10 s window) leaves 0.05 mm below on purpose.
 TEST(Metrics, StepOvershootWithinWindow) {
-  std::vector<sma_host::Sample> run;
-  for (int k = 0; k < 4000; ++k) {
-    const double t = 0.01 * k;
-    double ref = 1.0, pos = 1.0;
-    if (t < 20.0) pos = fabs(t - 2.0) < 0.5 ? 1.03 : 1.0;
-    else {
-      ref = 0.4;
-      pos = fabs(t - 23.0) < 0.5 ? 0.38 : (t > 32.0 ? 0.35 : 0.4);
-    }
-    run.push_back(at(t, ref, pos));
-  }
+  const auto run = run_of(4000, [](double t) { return t < 20.0 ? 1.0 : 0.4; }, [](double t) {
+    if (t < 20.0) return fabs(t - 2.0) < 0.5 ? 1.03 : 1.0;
+    return fabs(t - 23.0) < 0.5 ? 0.38 : (t > 32.0 ? 0.35 : 0.4);
+  });
   EXPECT_NEAR(sma_host::step_overshoot_mm(run, 20.0, 10.0), 0.03, 1e-12);
   EXPECT_NEAR(sma_host::step_overshoot_mm(run, 20.0, 15.0), 0.05, 1e-12);
 }
