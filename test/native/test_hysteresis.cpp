@@ -6,21 +6,14 @@
 #include <vector>
 #include "sma/hysteresis.hpp"
 #include "sma_host/plant.hpp"
+#include "temperature_walk.hpp"
 
 namespace {
 const sma::Params kP;
 const sma::PhaseCurves<double> kCurves(kP);
 constexpr double kTol = 1e-3;  // model.md: match within 1e-3
 
-// Walk the temperature from the current state to `to` in small steps.
-void walk(sma::Hysteresis<double>& h, double to, double step = 0.05) {
-  double T = h.temperature();
-  const double s = to > T ? step : -step;
-  while ((to - T) * s > 0) {
-    T = fabs(to - T) < step ? to : T + s;
-    h.update(T);
-  }
-}
+using temperature_walk::walk;
 }  // namespace
 
 TEST(Hysteresis, MajorHeatingCurveCheckValues) {
@@ -198,14 +191,12 @@ TEST(Hysteresis, KnownFractionAndPreparedLoopWalkTheSamePath) {
   const double path[] = {40, 64, 50, 66, 45, 66.5, 62, 70, 55, 72, 30, 80, 61, 90, 22};
   double T = 22.0;
   int reversals_checked = 0;
-  for (double to : path) {
-    const double s = to > T ? 0.25 : -0.25;
-    while ((to - T) * s > 0) {
-      T = fabs(to - T) < 0.25 ? to : T + s;
-      const double eps = plain.update(T);
+  for (double to : path)
+    T = temperature_walk::steps(T, to, 0.25, [&](double x, bool rising) {
+      const double eps = plain.update(x);
       double known;
-      if (s > 0) {
-        known = kCurves.eps_heat(T);
+      if (rising) {
+        known = kCurves.eps_heat(x);
       } else {
         const sma::CoolingLoop<double> expect = hinted.loop_for_cooling();
         const sma::CoolingLoop<double>& L = hinted.prepare_cooling();
@@ -213,12 +204,11 @@ TEST(Hysteresis, KnownFractionAndPreparedLoopWalkTheSamePath) {
         ASSERT_EQ(L.top, expect.top);
         ASSERT_EQ(hinted.loop_for_cooling().T_i, expect.T_i);  // still the prepared loop
         reversals_checked += hinted.heating();
-        known = kCurves.eps_cool(L, T);
+        known = kCurves.eps_cool(L, x);
       }
-      ASSERT_NEAR(hinted.update(T, known), eps, 1e-12) << "at T = " << T;
-      ASSERT_EQ(hinted.loop().T_MSi, plain.loop().T_MSi) << "at T = " << T;
-    }
-  }
+      ASSERT_NEAR(hinted.update(x, known), eps, 1e-12) << "at T = " << x;
+      ASSERT_EQ(hinted.loop().T_MSi, plain.loop().T_MSi) << "at T = " << x;
+    });
   EXPECT_GE(reversals_checked, 7);
 }
 
@@ -231,13 +221,11 @@ TEST(Hysteresis, ShapeOnlyReversalWalksTheSamePathWithTheSameLoop) {
   const float path[] = {40, 64, 50, 66, 45, 66.5f, 62, 70, 55, 72, 30, 80, 61, 90, 22};
   float T = 22.0f;
   int reversals = 0;
-  for (float to : path) {
-    const float s = to > T ? 0.25f : -0.25f;
-    while ((to - T) * s > 0) {
-      T = fabsf(to - T) < 0.25f ? to : T + s;
-      const float eps = plain.update(T);
-      if (s > 0) {
-        hinted.update(T, curves.eps_heat(T));
+  for (float to : path)
+    T = temperature_walk::steps(T, to, 0.25f, [&](float x, bool rising) {
+      const float eps = plain.update(x);
+      if (rising) {
+        hinted.update(x, curves.eps_heat(x));
       } else {
         const bool reversal = hinted.heating();
         const sma::CoolingLoop<float> full = hinted.loop_for_cooling();
@@ -247,18 +235,17 @@ TEST(Hysteresis, ShapeOnlyReversalWalksTheSamePathWithTheSameLoop) {
         ASSERT_EQ(L.inv_top, full.inv_top);
         ASSERT_EQ(curves.has_cooling_stage(L), full.inv_cool > 0.0f);
         // The inverse's eq 16 on the shape, then the memory told that fraction.
-        const float e = curves.eps_cool(full, T);
+        const float e = curves.eps_cool(full, x);
         reversals += reversal;
-        if (e > 0.0f && e < L.top) hinted.update(T, e);
-        else hinted.update(T);
+        if (e > 0.0f && e < L.top) hinted.update(x, e);
+        else hinted.update(x);
       }
-      ASSERT_NEAR(hinted.eps(), eps, 1e-6f) << "at T = " << T;
+      ASSERT_NEAR(hinted.eps(), eps, 1e-6f) << "at T = " << x;
       const sma::CoolingLoop<float> a = hinted.loop(), b = plain.loop();
-      ASSERT_EQ(a.rise_rate, b.rise_rate) << "at T = " << T;
-      ASSERT_EQ(a.inv_cool, b.inv_cool) << "at T = " << T;
-      ASSERT_EQ(a.T_ii, b.T_ii) << "at T = " << T;
-    }
-  }
+      ASSERT_EQ(a.rise_rate, b.rise_rate) << "at T = " << x;
+      ASSERT_EQ(a.inv_cool, b.inv_cool) << "at T = " << x;
+      ASSERT_EQ(a.T_ii, b.T_ii) << "at T = " << x;
+    });
   EXPECT_GE(reversals, 7);
 }
 

@@ -7,6 +7,7 @@
 #include "sma/hysteresis.hpp"
 #include "sma_host/identify.hpp"
 #include "sma_host/plant_b.hpp"
+#include "temperature_walk.hpp"
 
 namespace {
 
@@ -16,14 +17,7 @@ sma::Params with_reading(sma::Reheat r) {
   return p;
 }
 
-void walk(sma::Hysteresis<double>& h, double to, double step = 0.05) {
-  double T = h.temperature();
-  const double s = to > T ? step : -step;
-  while ((to - T) * s > 0) {
-    T = fabs(to - T) < step ? to : T + s;
-    h.update(T);
-  }
-}
+using temperature_walk::walk;
 
 // Eq 11 on a loop of top 1 whose martensite start is T_MSi.
 double eq11(double T, double T_MSi, double T_MF) {
