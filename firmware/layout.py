@@ -97,8 +97,9 @@ def main():
     a = ap.parse_args()
 
     secs = sections_from_map(a.map)
-    # Units: consecutive sections of one block move together.
-    units = []  # [name, size, [(offset, section start)]]
+    # Units: the sections of one block move together (a block's extent in the first link is
+    # from its first section's start to its last one's end).
+    units = []  # [pattern, first start, starts, end]
     index = {}
     for name, start, size, path in secs:
         b = block_of(name, path)
@@ -111,7 +112,8 @@ def main():
         else:
             index[b] = len(units)
             units.append([b, start, [start], start + size])
-    # unit: key, first start, starts, end; size = end - first start (blocks are contiguous now).
+    if not units:
+        sys.exit('layout.py: no function sections in the map (link with -ffunction-sections)')
     size = [u[3] - u[1] for u in units]
     lo = [u[1] for u in units]
 
@@ -127,8 +129,6 @@ def main():
         if cu is None or tu is None or cu == tu:
             continue
         edges.append((cu, site - lo[cu], tu, target - lo[tu]))
-    if not units:
-        sys.exit('layout.py: no function sections in the map (link with -ffunction-sections)')
 
     by_unit = [[] for _ in units]
     for e in edges:
