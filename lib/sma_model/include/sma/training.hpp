@@ -59,16 +59,17 @@ struct TrainingPlan {
   // Length of one ramp cycle for peak k (up, down, hold).
   double cycle_s(uint8_t k) const { return 2.0 * rise_s(k, 1.0 / slope) + hold_s; }
 
+  // The ramps' total is hold + sum over the peaks of (2 (peak - floor) / slope + hold): one
+  // division, not one per peak.
   double duration() const {
-    double t = hold_s;
-    for (uint8_t k = 0; k < n_peaks; ++k) t += cycle_s(k);
-    return t + (n_probes > 0 ? (n_probes + 1) * probe_s : 0.0);
+    double rise = 0.0;
+    for (uint8_t k = 0; k < n_peaks; ++k) rise += peaks[k] - floor_V;
+    return (n_peaks + 1) * hold_s + 2.0 * rise / slope + (n_probes > 0 ? (n_probes + 1) * probe_s : 0.0);
   }
 
   // The voltage at t seconds from the start (0 after the end).
   double voltage_at(double t) const {
-    if (!(t >= 0.0)) return floor_V;
-    if (t < hold_s) return floor_V;
+    if (!(t >= hold_s)) return floor_V;  // the first hold (and t < 0, NaN: hold_s >= 0)
     t -= hold_s;
     // One division per call, not two per peak: the firmware plays this every tick (~500 AVR
     // cycles a division).
@@ -76,11 +77,13 @@ struct TrainingPlan {
     for (uint8_t k = 0; k < n_peaks; ++k) {
       const double rise = rise_s(k, inv_slope);
       if (t < rise) return floor_V + slope * t;
-      if (t < 2.0 * rise) return peaks[k] - slope * (t - rise);
-      t -= 2.0 * rise + hold_s;  // cycle_s(k)
+      t -= rise;  // now from the peak
+      if (t < rise) return peaks[k] - slope * t;
+      t -= rise + hold_s;  // the rest of cycle_s(k)
       if (t < 0.0) return floor_V;
     }
-    if (t >= 0.0 && t < n_probes * probe_s) {
+    // (t >= 0 here.)
+    if (t < n_probes * probe_s) {
       const uint8_t k = static_cast<uint8_t>(t / probe_s);
       return probes[k < n_probes ? k : n_probes - 1];  // (k == n_probes only by rounding)
     }

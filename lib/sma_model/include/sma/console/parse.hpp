@@ -113,8 +113,8 @@ enum Prop : uint8_t {
   kKeyed = 64,        // a storage key comes first (pset, pget); its number has the key's range
   kSameWord = 128,    // the same command word as the row before (another keyword of it)
 };
-// The numbers: name (in the errors) and range. Upper bound -1: the stroke (Limits::g_mm), -2:
-// Limits::v_max.
+// The numbers: name (in the errors) and range. The upper bounds of mm and V are the Limits'
+// (the stroke g_mm, v_max: arg_bound()), marked -1 and -2 in the table.
 enum Arg : uint8_t { kNoArg, kArgMm, kArgV, kArgKp, kArgKi, kArgKd, kArgDegC, kArgTs, kArgSlope, kArgValue, kArgW };
 namespace detail {
 #if SMA_CONSOLE_PREVIEW
@@ -199,12 +199,14 @@ inline CommandRow command_row(uint8_t r) {
   return row;
 }
 inline double arg_bound(uint8_t arg, uint8_t hi, const Limits& lim) {
+  // (The two limits by their argument, not by the table's -1/-2: byte compares, not float ones.)
+  if (hi && arg == kArgMm) return lim.g_mm;
+  if (hi && arg == kArgV) return lim.v_max;
 #if defined(__AVR__)
-  const double b = pgm_read_float(&kArgRange[arg][hi]);
+  return pgm_read_float(&kArgRange[arg][hi]);
 #else
-  const double b = kArgRange[arg][hi];
+  return kArgRange[arg][hi];
 #endif
-  return b == -1.0 ? lim.g_mm : b == -2.0 ? lim.v_max : b;
 }
 // Does row r exist in this build?
 // (The preview's rows, `mode preview` and `cool`, by their Op: no property bit is left.)

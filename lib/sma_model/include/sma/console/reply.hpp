@@ -32,19 +32,30 @@ struct Reply {
   void put_s(const char* s, uint8_t n = 255) {
     for (uint8_t k = 0; k < n && s[k] != 0; ++k) put(s[k] >= 32 && s[k] < 127 ? s[k] : '?');
   }
-  void put_u(uint32_t v) {
+  void put_u(uint32_t v) { put_scaled(v, 0); }
+  // v / 10^dec with `dec` decimals (0..9): put_scaled(12345, 2) -> "123.45", (7, 2) -> "0.07".
+  // The one digit loop of put_u, put_fixed and the telemetry's time; 16-bit divisions once the
+  // rest fits (a 32-bit division costs ~600 AVR cycles, a 16-bit one ~200: telemetry formats
+  // 5 numbers every tick).
+  void put_scaled(uint32_t v, uint8_t dec) {
     char d[10];
     uint8_t n = 0;
-    while (v > 0xFFFFu && n < 10) {  // 32-bit digits only while needed
-      d[n++] = static_cast<char>('0' + v % 10u);
-      v /= 10u;
-    }
-    uint16_t w = static_cast<uint16_t>(v);
     do {
-      d[n++] = static_cast<char>('0' + w % 10u);
-      w = static_cast<uint16_t>(w / 10u);
-    } while (w != 0 && n < 10);
-    while (n > 0) put(d[--n]);
+      uint8_t digit;
+      if (v > 0xFFFFu) {
+        digit = static_cast<uint8_t>(v % 10u);
+        v /= 10u;
+      } else {
+        const uint16_t w = static_cast<uint16_t>(v);
+        digit = static_cast<uint8_t>(w % 10u);
+        v = static_cast<uint16_t>(w / 10u);
+      }
+      d[n++] = static_cast<char>('0' + digit);
+    } while ((v != 0 || n <= dec) && n < 10);
+    while (n > 0) {
+      put(d[--n]);
+      if (n == dec && n != 0) put('.');
+    }
   }
   // Fixed-point decimal with `dec` decimals (0..6), rounded; "nan"/"inf" for non-finite and
   // "big" beyond 2e9 units of the last digit (so no printf("%f"), which avr-libc lacks by default).
@@ -66,29 +77,7 @@ struct Reply {
       put_f(SMA_F("big"));
       return;
     }
-    const uint32_t v = static_cast<uint32_t>(scaled);
-    const uint32_t ip = v / scale;
-    put_u(ip);
-    if (dec == 0) return;
-    put('.');
-    const uint32_t frac = v - ip * scale;
-    // Digits right to left; 16-bit arithmetic when it fits (a 32-bit division costs ~600 AVR
-    // cycles, a 16-bit one ~200: telemetry formats 4 numbers every tick).
-    char d[6];
-    if (scale <= 10000u) {
-      uint16_t f = static_cast<uint16_t>(frac);
-      for (uint8_t k = dec; k > 0; --k) {
-        d[k - 1] = static_cast<char>('0' + f % 10u);
-        f = static_cast<uint16_t>(f / 10u);
-      }
-    } else {
-      uint32_t f = frac;
-      for (uint8_t k = dec; k > 0; --k) {
-        d[k - 1] = static_cast<char>('0' + f % 10u);
-        f /= 10u;
-      }
-    }
-    for (uint8_t k = 0; k < dec; ++k) put(d[k]);
+    put_scaled(static_cast<uint32_t>(scaled), dec);
   }
   // A short decimal, about 6-7 significant digits, trailing zeros trimmed: 0.000001, 0.2,
   // -4.8334, 50.2, 100000 (range bounds, and pget/pset echoes next to the exact float bits).
@@ -139,16 +128,16 @@ inline void telemetry_row(Reply& r, uint32_t ticks, uint16_t ticks_per_s, double
     }
     return;
   }
-  r.put_u(ticks / ticks_per_s);
-  r.put('.');
-  uint32_t frac = ticks % ticks_per_s;
-  // two decimals for 100 Hz; three for up to 1000 ticks/s.
-  const uint8_t digits = ticks_per_s <= 100 ? 2 : 3;
-  uint32_t unit = digits == 2 ? 100u : 1000u;
-  frac = frac * unit / ticks_per_s;
-  for (uint32_t s = unit / 10u; s > 0; s /= 10u) {
-    r.put(static_cast<char>('0' + frac / s));
-    frac %= s;
+  // Two decimals for up to 100 ticks/s (at 100 Hz the ticks are the hundredths), three for up
+  // to 1000.
+  if (ticks_per_s == 100) {
+    r.put_scaled(ticks, 2);
+  } else {
+    const uint32_t unit = ticks_per_s <= 100 ? 100u : 1000u;
+    r.put_u(ticks / ticks_per_s);
+    const uint8_t point = r.len;  // the fraction's digits with their leading zeros: unit + frac,
+    r.put_u(unit + ticks % ticks_per_s * unit / ticks_per_s);  // its leading 1 becomes the point
+    if (point < r.len) r.text[point] = '.';
   }
   for (uint8_t k = 0; k < 4; ++k) {
     r.put(',');
