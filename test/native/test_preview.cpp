@@ -47,7 +47,28 @@ TEST(Preview, MultiStepRigLike) {
   EXPECT_LE(m.rms_mm, 0.05);
   EXPECT_LT(m.rms_mm, mp.rms_mm);
   EXPECT_LE(m.wrong_way_mm, 0.03);
+  EXPECT_LE(m.wrong_way_before_mm, 0.03);
   EXPECT_LT(m.sse_mm, 0.005);
+}
+
+// Before the 0.8 -> 0.5 mm down-step the wire must not first go up: heated to 0.8 mm on the
+// heating branch, any cooling starts with the minor-loop rise j_i (eqs 5-6, ~0.08 mm here).
+// Rig-like, float, on the exact model and on a wire with latent heat with its exact model:
+// no move past a held setpoint away from the next one beyond 0.03 mm (the wrong-way
+// target), none after the step either. Without the look beyond the horizon
+// (lookahead_s = 0) the plan leaves 0.8 mm upwards ~14 s early: the check can fail.
+TEST(Preview, NoRiseBeforeADownStep) {
+  for (double latent_J : {0.0, 1.0}) {
+    RunSetup s = preview_setup(false, true);
+    s.plant_effects.latent_heat_J = latent_J;
+    s.model_effects = s.plant_effects;
+    const Metrics m = run<float>(s);
+    EXPECT_LE(m.wrong_way_before_mm, 0.03) << latent_J;
+    EXPECT_LE(m.wrong_way_mm, 0.03) << latent_J;
+    EXPECT_LT(m.sse_mm, 0.005) << latent_J;
+    s.preview.lookahead_s = 0.0;
+    EXPECT_GT(run<float>(s).wrong_way_before_mm, 0.05) << latent_J;
+  }
 }
 
 // Zero steady-state error with the exact model (the offset estimate is the integral action;
