@@ -515,9 +515,9 @@ class PreviewCore {
 
   // Is reference r a hold approached on the rise (its next move is down)?
   bool capped(T r) const { return cap_on_ && abs(r - cap_ref_) <= deadband_; }
-  // Heading up to a hold approached on the rise, below its peak: a cooling that starts here
-  // would rise short of the hold (the planned switch waits for the peak).
-  bool climbs_to_cap(T r) const { return cap_on_ && r < cap_ref_ - deadband_ && sim_T_ < cap_T_; }
+  // Heading up to (or at) a hold approached on the rise, below its peak: a cooling that starts
+  // here would rise short of the hold (the planned switch waits for the peak).
+  bool climbs_to_cap(T r) const { return cap_on_ && !(r > cap_ref_ + deadband_) && sim_T_ < cap_T_; }
   // The heating has reached the peak whose rise ends at the hold. (It is driven 0.1 K past it:
   // it crosses T_i* at speed instead of creeping up to it.)
   bool at_cap(T Tw) const { return !(Tw < cap_T_); }
