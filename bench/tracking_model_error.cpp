@@ -112,12 +112,13 @@ int main(int argc, char** argv) {
       }
   std::fprintf(stderr, "\n");
   std::printf("Rig-like, float, default settings; true position, whole run (sine after its first "
-              "period). Overshoot: past each new setpoint within 10 s of its step.\n\n"
+              "period). Overshoot: past each new setpoint within 10 s of its step. Wrong-way: after / before\n"
+              "a reversal or down-step (before: past a held setpoint, away from the next one).\n\n"
               "| case | test | controller | max mm | RMS mm | max fall mm | wrong-way mm | SSE mm | overshoot mm |\n"
               "|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
-    std::printf("| %s | %s | %s | %.4f | %.4f | %.4f | %.4f | %s | %s |\n", r.kase.c_str(), r.test.c_str(),
-                r.controller.c_str(), r.m.max_mm, r.m.rms_mm, r.m.max_fall_mm, r.m.wrong_way_mm,
+    std::printf("| %s | %s | %s | %.4f | %.4f | %.4f | %.4f / %.4f | %s | %s |\n", r.kase.c_str(), r.test.c_str(),
+                r.controller.c_str(), r.m.max_mm, r.m.rms_mm, r.m.max_fall_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm,
                 r.test == "sine" ? "-" : std::to_string(r.m.sse_mm).substr(0, 6).c_str(),
                 r.test == "sine" ? "-" : std::to_string(r.overshoot_mm).substr(0, 6).c_str());
   FILE* f = std::fopen(json_path, "w");
@@ -131,9 +132,9 @@ int main(int argc, char** argv) {
     std::fprintf(f,
                  "    {\"case\": \"%s\", \"test\": \"%s\", \"condition\": \"rig-like\", \"scalar\": \"float\", "
                  "\"controller\": \"%s\", \"max_mm\": %.6f, \"rms_mm\": %.6f, \"max_fall_mm\": %.6f, "
-                 "\"wrong_way_mm\": %.6f, \"sse_mm\": %.6f, \"overshoot_mm\": %.6f}%s\n",
+                 "\"wrong_way_mm\": %.6f, \"wrong_way_before_mm\": %.6f, \"sse_mm\": %.6f, \"overshoot_mm\": %.6f}%s\n",
                  r.kase.c_str(), r.test.c_str(), r.controller.c_str(), r.m.max_mm, r.m.rms_mm, r.m.max_fall_mm,
-                 r.m.wrong_way_mm, r.m.sse_mm, r.overshoot_mm, i + 1 < rows.size() ? "," : "");
+                 r.m.wrong_way_mm, r.m.wrong_way_before_mm, r.m.sse_mm, r.overshoot_mm, i + 1 < rows.size() ? "," : "");
   }
   std::fprintf(f, "  ]\n}\n");
   std::fclose(f);

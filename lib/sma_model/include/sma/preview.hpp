@@ -35,6 +35,10 @@
 //    whose rise carries the wire to the top; heating restarts before a valley.
 //  - After a switch the branch follows the reference: it turns back only once the reference
 //    has moved with it and then turns against it.
+//  - A hold whose next move is down (seen in the plan's reference or at a few knots beyond the
+//    horizon) is approached from below on the rise: the heating stops at the peak T_i* whose
+//    minor-loop rise ends at the setpoint (a fixed point of eq 15 and the loop's j_i), so the
+//    wire arrives there on the cooling branch and the move down starts without going up first.
 //
 // API for a board: PreviewController<T> c(params, effects, cfg); each tick
 //   V = c.step(ref_now, future, measured)
@@ -80,6 +84,16 @@ struct PreviewConfig {
   double deadband_mm = 1e-4;   // a reference turn smaller than this is not a turn
   double switch_margin_mm = 0.0125;  // a switch must beat waiting by this RMS error over the
                                      // horizon: small offsets of a fitted model never switch
+  // A setpoint held (>= 2 s) before a move down is approached from below on the rise: the
+  // heating stops at the peak T_i* whose minor-loop rise (eqs 5-6) ends rise_margin_mm above
+  // the setpoint, and the wire arrives on the cooling branch, where it is held on the loop's
+  // cooling curve (eq 16); the move down then starts there instead of going up by j_i first.
+  // (The margin: a rise that falls short could only be made up by heating again, which opens
+  // a new loop; one that passes the setpoint a little is cooled back.) The hold's next move is
+  // looked for in the plan's reference and beyond it, at kFar knots over lookahead_s after
+  // the horizon (0 = off).
+  double lookahead_s = 16.0;
+  double rise_margin_mm = 0.005;
   // The heater's PWM (duty = (V / v_supply)^2 in pwm_top levels; 0 = continuous). On the
   // cooling branch above the loop's T_MSi (the rise and the flat stage) the command is rounded
   // down to a level, so the PWM's rounding never re-heats a wire that is meant to cool or hold
@@ -115,6 +129,8 @@ struct PreviewConfig {
     if (!(cool_weight >= 0.0 && cool_weight <= 100.0)) return "cool_weight must be in 0..100";
     if (!(deadband_mm >= 0.0 && deadband_mm < 1.0)) return "deadband_mm must be in 0..1";
     if (!(switch_margin_mm >= 0.0 && switch_margin_mm < 1.0)) return "switch_margin_mm must be in 0..1";
+    if (!(lookahead_s >= 0.0 && lookahead_s <= 64.0)) return "lookahead_s must be in 0..64";
+    if (!(rise_margin_mm >= 0.0 && rise_margin_mm <= 0.1)) return "rise_margin_mm must be in 0..0.1";
     if (!(v_supply >= v_max && v_supply <= 50.0)) return "v_supply must be in v_max..50";
     if (!(heat_gain_memory_s == 0.0 || (heat_gain_memory_s >= 1.0 && heat_gain_memory_s <= 1000.0)))
       return "heat_gain_memory_s must be 0 or in 1..1000";
@@ -134,6 +150,7 @@ class PreviewCore {
   static constexpr uint8_t kCandidates = 7;
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
   static constexpr uint8_t kObserveTicks = 10;  // ticks between samples of the heat-loss observer
+  static constexpr uint8_t kFar = 4;  // knots of the look beyond the horizon (lookahead_s)
 
   // curves and thermal: built from p and fx. model_valid: the caller's verdict on p and fx
   // (Params::check, Effects::check), e.g. a board's Controller built from the same set (on AVR a
@@ -172,7 +189,11 @@ class PreviewCore {
         // The regression's means move by ~1e-5 a sample: a scalar that rounds 1e-6 to zero
         // (Q16.16) cannot hold them, and runs without the observer (docs/control.md).
         observe_heat_(cfg.heat_gain_memory_s > 0.0 && !(from_double<T>(1e-6) == T(0))),
-        lag_ticks_(from_double<T>(cfg.heat_gain_lag_ticks)) {
+        lag_ticks_(from_double<T>(cfg.heat_gain_lag_ticks)),
+        far_step_s_(cfg.lookahead_s / kFar),
+        rise_margin_(from_double<T>(cfg.rise_margin_mm)),
+        min_hold_(static_cast<uint8_t>(2.0 / cfg.grid_s + 0.999)),
+        look_far_(cfg.lookahead_s > 0.0) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -201,6 +222,7 @@ class PreviewCore {
     have_ref_ = false;
     v_ = T(0);
     lead_ready_ = false;
+    down_next_ = false;
     restart_plan();
   }
 
@@ -214,6 +236,7 @@ class PreviewCore {
     have_ref_ = false;
     lead_ready_ = false;
     switch_due_ = 0;
+    down_next_ = false;
     restart_plan();
   }
   // The trade-off setting (PreviewConfig::cool_weight, 0..100); out of range: unchanged.
@@ -277,6 +300,12 @@ class PreviewCore {
       return false;
     }
     if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();  // in-step planning
+    // The heating reached the peak of a hold approached on the rise: cool (here, not in the
+    // tick: the switch builds the loop).
+    if (heating_ && capped(ref_now_) && at_cap(T_est_)) {
+      switch_branch();
+      return false;
+    }
     if (j_ >= n_grid_ && next_candidate()) return true;
     sim_step(future);
     return false;
@@ -411,10 +440,11 @@ class PreviewCore {
   // rounding reuse it (three builds of eqs 5-11 on one tick otherwise).
   T branch_temperature(bool heat, Hysteresis<T>& h, T Tw, T r) const {
     const T eps_t = mech_.fraction(r - d_);  // eq 14, with the offset
-    if (heat) return max(Tw, curves_.heat_temperature(eps_t));
+    if (heat) return max(Tw, capped(r) ? cap_T_ + T(0.1) : curves_.heat_temperature(eps_t));
     const CoolingLoop<T>& L = h.prepare_cooling();
-    // Still above the end of the rise and asked to stay or go up: ride the rise (eqs 5-6).
-    if (Tw > L.T_ii && !(eps_t < h.eps())) return min(Tw, curves_.rise_temperature(L, eps_t));
+    // Still above the end of the rise and asked to stay or go up: ride the rise (eqs 5-6);
+    // not before a move down (take the rise now, and hold on the cooling curve).
+    if (Tw > L.T_ii && !(eps_t < h.eps()) && !capped(r)) return min(Tw, curves_.rise_temperature(L, eps_t));
     return min(Tw, curves_.cool_temperature(L, eps_t));
   }
 
@@ -430,6 +460,10 @@ class PreviewCore {
   }
 
   SMA_PREVIEW_NOINLINE void restart_plan() {
+    // The last plan's verdict on the hold, for the tick and every candidate of this plan.
+    cap_on_ = down_next_;
+    cap_ref_ = hold_ref_;
+    cap_T_ = peak_T_;
     cand_ = 0;
     j_ = 0;
     elapsed_ticks_ = 0;
@@ -479,6 +513,50 @@ class PreviewCore {
     return false;
   }
 
+  // Is reference r a hold approached on the rise (its next move is down)?
+  bool capped(T r) const { return cap_on_ && abs(r - cap_ref_) <= deadband_; }
+  // Heading up to (or at) a hold approached on the rise, below its peak: a cooling that starts
+  // here would rise short of the hold (the planned switch waits for the peak).
+  bool climbs_to_cap(T r) const { return cap_on_ && !(r > cap_ref_ + deadband_) && sim_T_ < cap_T_; }
+  // The heating has reached the peak whose rise ends at the hold. (It is driven 0.1 K past it:
+  // it crosses T_i* at speed instead of creeping up to it.)
+  bool at_cap(T Tw) const { return !(Tw < cap_T_); }
+
+  // The first hold (>= 2 s) in the plan's reference whose next move is down (in the plan's
+  // samples, else at a knot beyond the horizon), and its peak T_i*: the fixed point
+  // T = eq 15 (eps_t - j(T)) whose rise (eqs 5-6) ends at the hold, one damped step per call.
+  // The second candidate, which samples nothing else, does one part per grid step (j_ <= kFar).
+  template <class Future>
+  void look_far(const Future& future) {
+    if (j_ == 0) {
+      far_open_ = false;
+      down_next_ = false;
+      for (uint8_t i = 0, e; i < n_grid_; i = e) {
+        for (e = static_cast<uint8_t>(i + 1); e < n_grid_ && abs(r_[e] - r_[i]) <= deadband_;) ++e;
+        if (e - i < min_hold_) continue;  // not held 2 s
+        if (e < n_grid_ && !(r_[e] < r_[i])) continue;
+        if (abs(r_[i] - hold_ref_) > deadband_) peak_T_ = T(-1);  // a new hold: start the fixed point again
+        hold_ref_ = r_[i];
+        down_next_ = e < n_grid_;
+        far_open_ = e >= n_grid_;
+        break;
+      }
+    } else if (far_open_) {
+      const double tau = n_grid_ * grid_s_ + j_ * far_step_s_ - elapsed_ticks_ * dt_;
+      const T r = future(from_double<T>(tau));
+      if (is_finite(r) && abs(r - hold_ref_) > deadband_) {
+        down_next_ = r < hold_ref_;
+        far_open_ = false;
+      }
+    }
+    if (!(down_next_ || far_open_)) return;
+    const T eps_t = mech_.fraction(hold_ref_ + rise_margin_ - d_);
+    if (peak_T_ < T(0)) peak_T_ = curves_.heat_temperature(eps_t);
+    const T eps_i = curves_.eps_heat(peak_T_);
+    const T j = curves_.start_loop(peak_T_, eps_i, true).top - eps_i;  // eqs 5-6, clamped at 1
+    peak_T_ = T(0.5) * (peak_T_ + curves_.heat_temperature(eps_t - j));
+  }
+
   // One grid step of candidate cand_ (switch at grid index switch_at_[cand_]).
   template <class Future>
   void sim_step(const Future& future) {
@@ -486,9 +564,15 @@ class PreviewCore {
       const double tau = (j_ + 1) * grid_s_ - elapsed_ticks_ * dt_;
       const T r = future(from_double<T>(tau > 0.0 ? tau : 0.0));
       r_[j_] = is_finite(r) ? clamp(r, T(0), mech_.g) : (j_ ? r_[j_ - 1] : T(0));
+    } else if (cand_ == 1 && j_ <= kFar && look_far_) {
+      look_far(future);
     }
     const T r = r_[j_];
-    if (j_ == switch_at_[cand_] && sim_heat_ == heating_) {
+    if (sim_heat_ && capped(r) && at_cap(sim_T_)) {  // the peak of a hold approached on the rise
+      sim_heat_ = false;
+      sim_moved_ = false;
+      sim_ext_ = r;
+    } else if (j_ == switch_at_[cand_] && sim_heat_ == heating_ && !(sim_heat_ && climbs_to_cap(r))) {
       sim_heat_ = !sim_heat_;
       sim_moved_ = false;
       sim_ext_ = r;
@@ -549,6 +633,15 @@ class PreviewCore {
   bool obs_pending_ = false;              // a sample waits for plan_step()
   T obs_x_ = T(0), obs_T_then_ = T(0);    // its measurement and model wire temperature
   T lag_ticks_;
+  double far_step_s_;  // lookahead_s / kFar
+  T rise_margin_;      // rise_margin_mm
+  uint8_t min_hold_;   // grid steps of a hold: 2 s
+  bool look_far_;
+  bool far_open_ = false;        // looking for the next move beyond the horizon
+  bool down_next_ = false;       // the hold's next move is down (the last look's verdict)
+  T hold_ref_ = T(-1), peak_T_ = T(-1);  // the hold it looked at, and its peak T_i*
+  bool cap_on_ = false;          // the verdict in use (from the last complete plan)
+  T cap_ref_ = T(-1), cap_T_ = T(0);
   T T_prev_ = T(22);  // the model wire before its last step
   uint8_t switch_at_[kCandidates];
   // Model wire.
