@@ -665,14 +665,28 @@ inline Fixed from_double<Fixed>(double x) {
 // On the AVR the steps are ~12 cycles of assembly (the remainder in one register, its ninth bit in
 // the carry), ~400 in all; a float division and the conversions around it cost ~800, the same
 // loop in C ~1200.
-template <>
-inline Fixed ratio<Fixed>(uint32_t n, uint8_t d) {
-  using namespace fixed_detail;
-  if ((n >> 15) >= d) return Fixed::max();  // also d == 0
-  uint8_t r = static_cast<uint8_t>((hi16(n) << 1) | (lo16(n) >> 15));  // n / 2^15 < d <= 255
-  uint32_t q = static_cast<uint32_t>(lo16(n)) << 16;  // n's 15 low bits (bit 31 is n's bit 15, shifted out first)
-  q <<= 1;
+namespace fixed_detail {
+// floor(n 2^17 / d) for n / 2^15 < d: the loop in C. Portable version; on the AVR the reference
+// the benchmark checks the assembly against.
+inline uint32_t ratio_q17_portable(uint32_t n, uint8_t d) {
+  uint8_t r = static_cast<uint8_t>((hi16(n) << 1) | (lo16(n) >> 15));
+  uint32_t q = static_cast<uint32_t>(lo16(n)) << 17;
+  for (uint8_t i = 0; i < 32; ++i) {
+    const uint16_t r2 = static_cast<uint16_t>((r << 1) | ((q & kHalfQ32) != 0 ? 1u : 0u));
+    q <<= 1;
+    if (r2 >= d) {
+      r = static_cast<uint8_t>(r2 - d);
+      q |= 1u;
+    } else {
+      r = static_cast<uint8_t>(r2);
+    }
+  }
+  return q;
+}
+inline uint32_t ratio_q17(uint32_t n, uint8_t d) {
 #if defined(__AVR__)
+  uint8_t r = static_cast<uint8_t>((hi16(n) << 1) | (lo16(n) >> 15));  // n / 2^15 < d <= 255
+  uint32_t q = static_cast<uint32_t>(lo16(n)) << 17;  // n's 15 low bits, then the quotient's
   uint8_t count = 32;
   __asm__(
       "1:                 \n\t"
@@ -692,19 +706,24 @@ inline Fixed ratio<Fixed>(uint32_t n, uint8_t d) {
       "brne 1b            \n\t"
       : [q] "+r"(q), [r] "+r"(r), [c] "+r"(count)
       : [d] "r"(d));
+  return q;
 #else
-  for (uint8_t i = 0; i < 32; ++i) {
-    const uint16_t r2 = static_cast<uint16_t>((r << 1) | ((q & kHalfQ32) != 0 ? 1u : 0u));
-    q <<= 1;
-    if (r2 >= d) {
-      r = static_cast<uint8_t>(r2 - d);
-      q |= 1u;
-    } else {
-      r = static_cast<uint8_t>(r2);
-    }
-  }
+  return ratio_q17_portable(n, d);
 #endif
-  return Fixed::from_raw(static_cast<int32_t>((q >> 1) + (q & 1u)));  // q = floor(n 2^17 / d)
+}
+}  // namespace fixed_detail
+
+// n / d in Q16.16, rounded half up, saturated (the mean of a tick's ADC samples, scalar.hpp):
+// restoring division of n 2^17 by an 8-bit d. The top bits of n start the remainder (n / 2^15 < d,
+// else the quotient overflows), which then stays below d: 32 steps of one shifted-in bit each.
+// On the AVR the steps are ~12 cycles of assembly (the remainder in one register, its ninth bit in
+// the carry), ~400 in all; a float division and the conversions around it cost ~800, the same
+// loop in C ~1200.
+template <>
+inline Fixed ratio<Fixed>(uint32_t n, uint8_t d) {
+  if ((n >> 15) >= d) return Fixed::max();  // also d == 0
+  const uint32_t q = fixed_detail::ratio_q17(n, d);
+  return Fixed::from_raw(static_cast<int32_t>((q >> 1) + (q & 1u)));
 }
 // x / 2^31 for x <= 2^31 in Q16.16, rounded: x / 2^15 as (x / 2^16) 2 + bit 15, plus bit 14.
 template <>
