@@ -668,9 +668,17 @@ inline Fixed from_double<Fixed>(double x) {
 namespace fixed_detail {
 // floor(n 2^17 / d) for n / 2^15 < d: the loop in C. Portable version; on the AVR the reference
 // the benchmark checks the assembly against.
+// n / 2^15, by 16-bit halves (a 32-bit shift by 15 is a 15-step loop on the AVR): the remainder
+// the division starts from.
+inline uint16_t ratio_top(uint32_t n) {
+  return static_cast<uint16_t>((hi16(n) << 1) | ((lo16(n) & 0x8000u) != 0 ? 1u : 0u));
+}
+// n's low 15 bits at the top of a word (the dividend bits still to shift in), by a 16-bit shift
+// and a byte move.
+inline uint32_t ratio_rest(uint32_t n) { return static_cast<uint32_t>(static_cast<uint16_t>(lo16(n) << 1)) << 16; }
 inline uint32_t ratio_q17_portable(uint32_t n, uint8_t d) {
-  uint8_t r = static_cast<uint8_t>((hi16(n) << 1) | (lo16(n) >> 15));
-  uint32_t q = static_cast<uint32_t>(lo16(n)) << 17;
+  uint8_t r = static_cast<uint8_t>(ratio_top(n));
+  uint32_t q = ratio_rest(n);
   for (uint8_t i = 0; i < 32; ++i) {
     const uint16_t r2 = static_cast<uint16_t>((r << 1) | ((q & kHalfQ32) != 0 ? 1u : 0u));
     q <<= 1;
@@ -685,8 +693,8 @@ inline uint32_t ratio_q17_portable(uint32_t n, uint8_t d) {
 }
 inline uint32_t ratio_q17(uint32_t n, uint8_t d) {
 #if defined(__AVR__)
-  uint8_t r = static_cast<uint8_t>((hi16(n) << 1) | (lo16(n) >> 15));  // n / 2^15 < d <= 255
-  uint32_t q = static_cast<uint32_t>(lo16(n)) << 17;  // n's 15 low bits, then the quotient's
+  uint8_t r = static_cast<uint8_t>(ratio_top(n));  // n / 2^15 < d <= 255
+  uint32_t q = ratio_rest(n);  // n's 15 low bits, then the quotient's
   uint8_t count = 32;
   __asm__(
       "1:                 \n\t"
@@ -721,7 +729,7 @@ inline uint32_t ratio_q17(uint32_t n, uint8_t d) {
 // loop in C ~1200.
 template <>
 inline Fixed ratio<Fixed>(uint32_t n, uint8_t d) {
-  if ((n >> 15) >= d) return Fixed::max();  // also d == 0
+  if (fixed_detail::hi16(n) >= 0x8000u || fixed_detail::ratio_top(n) >= d) return Fixed::max();  // also d == 0
   const uint32_t q = fixed_detail::ratio_q17(n, d);
   return Fixed::from_raw(static_cast<int32_t>((q >> 1) + (q & 1u)));
 }
