@@ -123,6 +123,10 @@ uint8_t self_check() {
     }
     if (sma::fixed_detail::add_raw(a, b) != sma::fixed_detail::add_raw_portable(a, b)) ++mismatches;
     if (sma::fixed_detail::sub_raw(a, b) != sma::fixed_detail::sub_raw_portable(a, b)) ++mismatches;
+    // The ADC mean's division (Fixed ratio): numerators below d 2^15.
+    const uint8_t d = static_cast<uint8_t>(b) != 0 ? static_cast<uint8_t>(b) : static_cast<uint8_t>(1);
+    const uint32_t n = static_cast<uint32_t>(a) % (static_cast<uint32_t>(d) << 15);
+    if (sma::fixed_detail::ratio_q17(n, d) != sma::fixed_detail::ratio_q17_portable(n, d)) ++mismatches;
     const uint16_t x = static_cast<uint16_t>(a);
     const uint16_t y = static_cast<uint16_t>(b);
     if (sma::fixed_detail::mul16(x, y) != mul16_libgcc(x, y)) ++mismatches;

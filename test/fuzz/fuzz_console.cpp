@@ -316,7 +316,7 @@ struct Harness {
     const uint16_t n = board.control(static_cast<uint32_t>(a) * 96u, 96, a >= 1023 ? 96 : 0);
     CHECK(n <= RIG_PWM_TOP + 1u, "PWM counts above TOP + 1");
     if (!board.state().heat || board.safety().tripped()) CHECK(n == 0, "PWM on with the heater off or the latch tripped");
-    CHECK(board.safety().config().t_limit_C == board_tlim, "the latch limit changed without tlim");
+    CHECK(board.safety().t_limit_C() == board_tlim, "the latch limit changed without tlim");
     const float v = board.controller().voltage();
     CHECK(std::isfinite(v) && v >= 0.0f && v <= RIG_V_MAX + 1e-6f, "controller output outside 0..V_max");
     board.report();

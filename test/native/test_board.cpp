@@ -70,9 +70,9 @@ struct Bench {
 
 TEST(Board, BootsWithTheRigsLimits) {
   Bench r;
-  EXPECT_DOUBLE_EQ(r.b->safety().config().t_limit_C, 95.0);
+  EXPECT_DOUBLE_EQ(r.b->safety().t_limit_C(), 95.0);
   EXPECT_NE(r.cmd("status").find("tlim=95"), std::string::npos);
-  EXPECT_DOUBLE_EQ(r.b->safety().config().t_limit_C, 95.0);
+  EXPECT_DOUBLE_EQ(r.b->safety().t_limit_C(), 95.0);
   // volt in 0..V_max of the rig, not the console's default 2 V.
   EXPECT_EQ(r.cmd("volt 1.9").rfind("ERR volt", 0), 0u);
   EXPECT_EQ(r.cmd("volt 1.8").rfind("OK volt", 0), 0u);
@@ -92,7 +92,7 @@ TEST(Board, TlimSurvivesEveryOtherCommand) {
   for (const char* c : others) {
     r.cmd(c);
     r.tick(0.3);
-    EXPECT_DOUBLE_EQ(r.b->safety().config().t_limit_C, 80.0) << "after '" << c << "'";
+    EXPECT_DOUBLE_EQ(r.b->safety().t_limit_C(), 80.0) << "after '" << c << "'";
     EXPECT_DOUBLE_EQ(r.b->state().tlim_C, 80.0) << "after '" << c << "'";
   }
   EXPECT_NE(r.cmd("status").find("tlim=80"), std::string::npos);

@@ -111,7 +111,7 @@ TEST(Safety, OverTemperature) {
   EXPECT_FALSE(u.set_limit(29.0));
   EXPECT_FALSE(u.set_limit(151.0));
   EXPECT_FALSE(u.set_limit(NAN));
-  EXPECT_DOUBLE_EQ(u.config().t_limit_C, 110.0);
+  EXPECT_DOUBLE_EQ(u.t_limit_C(), 110.0);
 }
 
 TEST(Safety, FirstFaultIsKept) {

@@ -154,19 +154,18 @@ class Board {
   // ---- the tick ----------------------------------------------------------------------------------
   // The tick's ADC samples (sum, count, count outside the sensor's valid range) -> PWM counts n,
   // duty n / (pwm_top + 1) = (V / V_supply)^2, 0 = heater off.
+  // The whole section runs in T, from the integers in to the integers out (Scalar operations
+  // ratio, floor_u16; the sine's phase from the tick count): a Q16.16 board converts nothing to
+  // float here. The figures for status and telemetry are converted in report(), after the PWM.
   SMA_NOINLINE uint16_t control(uint32_t adc_sum, uint8_t adc_n, uint8_t adc_bad) {
-    const float volts = adc_n ? static_cast<float>(adc_sum) / static_cast<float>(adc_n) *
-                                    static_cast<float>(Rig::adc_vref() / Rig::adc_counts())
-                              : -1.0f;  // no sample: sensor lost
-    const float mm = static_cast<float>(Rig::sensor_mm_per_v()) * volts +
-                     static_cast<float>(Rig::sensor_offset_mm());
+    // The sensor's mean voltage (no sample: -1 V, sensor lost) and the position it reads.
+    const T volts = adc_n ? ratio<T>(adc_sum, adc_n) * T(Rig::adc_vref() / Rig::adc_counts()) : T(-1);
+    const T mm = T(Rig::sensor_mm_per_v()) * volts + T(Rig::sensor_offset_mm());
     // The position the controller acts on: calibration undone, lag and delay compensated.
-    const T d = Rig::compensate() ? sensor().correct(from_double<T>(mm), wire_temperature())
-                                  : from_double<T>(mm);
+    const T d = Rig::compensate() ? sensor().correct(mm, wire_temperature()) : mm;
     v_.x.last_d_ = d;
 
     const uint32_t k = v_.x.ticks_ - v_.x.run_start_;
-    const float t_ref = static_cast<float>(k) * static_cast<float>(1.0 / Rig::tick_hz());
     T ref = T(0);
     if (Rig::train() && v_.x.training_) {  // the training signal, open loop (the latch still applies)
       if (k >= gen_.train.end_ticks) {
@@ -175,22 +174,22 @@ class Board {
         state_.s.heat = false;
         ctl().set_mode(Mode::Off, d);
       } else {
-        ctl().set_voltage(from_double<T>(training_voltage(t_ref)));
+        ctl().set_voltage(from_double<T>(training_voltage(t_of(k))));
       }
     } else {
-      ref = kPreview ? ref_at(t_ref) : gen().at(t_ref);
+      ref = kPreview ? ref_at(t_of(k)) : gen().at_tick(k, 1.0 / Rig::tick_hz());
     }
     // (The preview runs instead of the Controller: its wire estimate is the one watched.)
-    const T v_cmd = preview_on() ? preview().step(ref, Future{this, t_ref}, d) : ctl().step(ref, d);
+    const T v_cmd = preview_on() ? preview().step(ref, Future{this, t_of(k)}, d) : ctl().step(ref, d);
 
-    SafetyInput in;
+    SafetyInputOf<T> in;
     in.sensor_v = volts;
     in.samples_in_range = adc_bad == 0 && adc_n > 0;
     in.measured_mm = mm;
-    in.wire_temp_C = static_cast<float>(to_double(wire_temperature()));
-    in.command_v = static_cast<float>(to_double(v_cmd));
+    in.wire_temp_C = wire_temperature();
+    in.command_v = v_cmd;
     in.heating = state_.s.heat;
-    const float v = static_cast<float>(safety_.x.gate(in));
+    const T v = safety_.x.gate(in);
     if (safety_.x.tripped() && state_.s.heat) {
       v_.x.fault_due_ = true;
       state_.s.heat = false;
@@ -198,19 +197,21 @@ class Board {
       ctl().set_mode(Mode::Off, d);
     }
     v_.x.counts_ = pwm_counts(v);
-
-    live_.x.ticks = v_.x.ticks_;
-    live_.x.t_ref_s = t_ref;
-    live_.x.d_mm = mm;
-    live_.x.ref_mm = static_cast<float>(to_double(ref));
-    live_.x.v = v;
-    live_.x.temp_C = in.wire_temp_C;
-    live_.x.fault = safety_.x.fault();
+    stash(live_.x.d_mm, mm);
+    stash(live_.x.ref_mm, ref);
+    stash(live_.x.v, v);
     return v_.x.counts_;
   }
 
-  // After control() (and the PWM written): the tick's telemetry row and fault announcement.
+  // After control() (and the PWM written): the tick's figures for status and telemetry, the
+  // telemetry row and a fault announcement of that tick.
   SMA_NOINLINE void report() {
+    live_.x.ticks = v_.x.ticks_;
+    live_.x.t_ref_s = t_of(v_.x.ticks_ - v_.x.run_start_);
+    double* slot = &live_.x.d_mm;  // d_mm, ref_mm, v: consecutive (console::Live)
+    for (uint8_t i = 0; i < 3; ++i) slot[i] = unstash(slot[i]);
+    live_.x.temp_C = to_double(wire_temperature());
+    live_.x.fault = safety_.x.fault();
     ctl().prepare_next_tick();  // a reversal's loop ahead of its tick (Controller)
     if (state_.s.tele) {
       if (v_.x.header_due_ && !state_.s.plot) {
@@ -261,7 +262,7 @@ class Board {
 
   // ---- read access (tests, the host) -------------------------------------------------------------
   const console::State& state() const { return state_.s; }
-  const Safety& safety() const { return safety_.x; }
+  const SafetyLatch<T>& safety() const { return safety_.x; }
   const console::Live& live() const { return live_.x; }
   const Ctl& controller() const { return ctl(); }
   console::Limits limits() const {
@@ -308,14 +309,14 @@ class Board {
   }
 
   // Effective volts -> PWM counts n of duty (V / V_supply)^2, n / (TOP + 1); below one count: 0.
-  static uint16_t pwm_counts(float v) {
-    const float top1 = static_cast<float>(Rig::pwm_top() + 1UL);
+  static uint16_t pwm_counts(T v) {
+    const T top1 = T(Rig::pwm_top() + 1.0);
     // (TOP + 1) / V_supply^2 folds at compile time: no division in the tick.
-    const float nf_per_v2 = static_cast<float>((Rig::pwm_top() + 1.0) / (Rig::v_supply() * Rig::v_supply()));
-    float nf = v * v * nf_per_v2 + 0.5f;
-    if (!(nf >= 1.0f)) nf = 0.0f;  // also NaN
+    const T nf_per_v2 = T((Rig::pwm_top() + 1.0) / (Rig::v_supply() * Rig::v_supply()));
+    T nf = v * v * nf_per_v2 + T(0.5);
+    if (!(nf >= T(1))) return 0;  // also NaN
     if (nf > top1) nf = top1;
-    return static_cast<uint16_t>(nf);
+    return floor_u16(nf);
   }
 
  private:
@@ -345,7 +346,7 @@ class Board {
   union SafetyStore {  // constructed by initial_safety()
     SafetyStore() {}
     ~SafetyStore() {}
-    Safety x;
+    SafetyLatch<T> x;
   };
   union StateStore {  // constructed by initial_state()
     StateStore() {}
@@ -374,6 +375,19 @@ class Board {
     float t;
     T operator()(T tau) const { return b->ref_at(t + static_cast<float>(to_double(tau))); }
   };
+  // control() leaves its figures for Live in Live's own slots as T (a Q16.16 -> float conversion
+  // costs ~100 cycles of the control section; no RAM of their own); report() converts them.
+  static void stash(double& slot, T x) {
+    static_assert(sizeof(T) <= sizeof(double), "a T fits a Live slot");
+    memcpy(&slot, &x, sizeof(T));
+  }
+  static double unstash(const double& slot) {
+    T x;
+    memcpy(&x, &slot, sizeof(T));
+    return to_double(x);
+  }
+  // Seconds since the run's start at its tick k (the training plan, the preview, status).
+  static float t_of(uint32_t k) { return static_cast<float>(k) * static_cast<float>(1.0 / Rig::tick_hz()); }
   // The reference at t (one copy of ReferenceGen::at for the tick and the preview's future).
   SMA_NOINLINE T ref_at(float t) { return gen().at(t); }
   static PreviewConfig preview_config() {
@@ -450,12 +464,12 @@ class Board {
   // The latch with the rig's config: on AVR a copy of a constant in flash (its stores cost
   // ~100 B of the static constructor).
 #if defined(__AVR__)
-  static SMA_NOINLINE void initial_safety(Safety* s) {
-    static constexpr Safety kSafety PROGMEM = Safety(safety_config());
-    memcpy_P(s, &kSafety, sizeof(Safety));
+  static SMA_NOINLINE void initial_safety(SafetyLatch<T>* s) {
+    static constexpr SafetyLatch<T> kSafety PROGMEM = SafetyLatch<T>(safety_config());
+    memcpy_P(s, &kSafety, sizeof(SafetyLatch<T>));
   }
 #else
-  static void initial_safety(Safety* s) { new (s) Safety(safety_config()); }
+  static void initial_safety(SafetyLatch<T>* s) { new (s) SafetyLatch<T>(safety_config()); }
 #endif
 
   // The console's initial state: on AVR a copy of a constant in flash (constructed in place, its
@@ -492,7 +506,7 @@ class Board {
     Reference& r = state_.s.traj;
     r.kind = state_.s.run_kind;
     r.constant_mm = state_.s.pos_mm;
-    new (&gen_.gen) Gen(r);
+    new (&gen_.gen) Gen(r, 1.0 / Rig::tick_hz());
     r.kind = RefKind::Trajectory;
   }
 

@@ -74,6 +74,7 @@ class Controller {
       pid_.start(measurement, T(0), v_ - v1);
     }
     mode_ = m;
+    prepare_hold();  // the mode's first tick, too, finds V_hold computed
   }
   Mode mode() const { return mode_; }
 
@@ -108,12 +109,7 @@ class Controller {
       inverse_.advance_model();
       inverse_.prepare_reversal();
     }
-    // The next tick's V_hold at the estimate it will start from (eq 1's R: with a
-    // phase-dependent resistance it needs the next measurement's fraction).
-    if (mode_ == Mode::FeedforwardPid && inverse_.thermal().plain) {
-      hold_ = thermal_hold();
-      hold_ready_ = true;
-    }
+    prepare_hold();
   }
 
   // Estimated wire temperature (eq 1 on the commanded voltage), deg C.
@@ -131,6 +127,14 @@ class Controller {
   const InverseModel<T>& inverse() const { return inverse_; }
 
  private:
+  // The next tick's V_hold at the estimate it will start from (eq 1's R: with a phase-dependent
+  // resistance it needs the next measurement's fraction, and stays in the tick).
+  void prepare_hold() {
+    if (mode_ == Mode::FeedforwardPid && inverse_.thermal().plain) {
+      hold_ = thermal_hold();
+      hold_ready_ = true;
+    }
+  }
   // `cfg_ok`: the config's check(), done by the caller (at compile time for CheckedConfig).
   Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg, bool cfg_ok)
       : cfg_(cfg),

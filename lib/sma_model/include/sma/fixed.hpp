@@ -282,7 +282,8 @@ inline int32_t signed_saturated(uint32_t m, bool negative) {
 }
 
 // ---- conversions (constexpr so that `T(0.5)` in a template costs nothing at run time) --------
-constexpr int32_t raw_from_scaled(double s) {
+// (Always inline: called with a constant, it folds; out of line it would run soft-float code.)
+SMA_FIXED_ALWAYS_INLINE constexpr int32_t raw_from_scaled(double s) {
   // s = x * 2^16; round half away from zero, saturate, NaN -> 0.
   return (s != s) ? 0
          : (s >= 2147483647.5)  ? kRawMax
@@ -290,7 +291,7 @@ constexpr int32_t raw_from_scaled(double s) {
          : (s >= 0.0)           ? static_cast<int32_t>(s + 0.5)
                                 : static_cast<int32_t>(s - 0.5);
 }
-constexpr int32_t raw_from_double(double x) { return raw_from_scaled(x * 65536.0); }
+SMA_FIXED_ALWAYS_INLINE constexpr int32_t raw_from_double(double x) { return raw_from_scaled(x * 65536.0); }
 
 // Integers: saturate outside [-32768, 32767], then scale (multiply, not <<: shifting a negative
 // value left is undefined in C++14).
@@ -657,6 +658,91 @@ inline Fixed from_double<Fixed>(double x) {
   return Fixed(x);
 #endif
 }
+
+// n / d in Q16.16, rounded half up, saturated (the mean of a tick's ADC samples, scalar.hpp):
+// restoring division of n 2^17 by an 8-bit d. The top bits of n start the remainder (n / 2^15 < d,
+// else the quotient overflows), which then stays below d: 32 steps of one shifted-in bit each.
+// On the AVR the steps are ~12 cycles of assembly (the remainder in one register, its ninth bit in
+// the carry), ~400 in all; a float division and the conversions around it cost ~800, the same
+// loop in C ~1200.
+namespace fixed_detail {
+// floor(n 2^17 / d) for n / 2^15 < d: the loop in C. Portable version; on the AVR the reference
+// the benchmark checks the assembly against.
+// n / 2^15, by 16-bit halves (a 32-bit shift by 15 is a 15-step loop on the AVR): the remainder
+// the division starts from.
+inline uint16_t ratio_top(uint32_t n) {
+  return static_cast<uint16_t>((hi16(n) << 1) | ((lo16(n) & 0x8000u) != 0 ? 1u : 0u));
+}
+// n's low 15 bits at the top of a word (the dividend bits still to shift in), by a 16-bit shift
+// and a byte move.
+inline uint32_t ratio_rest(uint32_t n) { return static_cast<uint32_t>(static_cast<uint16_t>(lo16(n) << 1)) << 16; }
+inline uint32_t ratio_q17_portable(uint32_t n, uint8_t d) {
+  uint8_t r = static_cast<uint8_t>(ratio_top(n));
+  uint32_t q = ratio_rest(n);
+  for (uint8_t i = 0; i < 32; ++i) {
+    const uint16_t r2 = static_cast<uint16_t>((r << 1) | ((q & kHalfQ32) != 0 ? 1u : 0u));
+    q <<= 1;
+    if (r2 >= d) {
+      r = static_cast<uint8_t>(r2 - d);
+      q |= 1u;
+    } else {
+      r = static_cast<uint8_t>(r2);
+    }
+  }
+  return q;
+}
+inline uint32_t ratio_q17(uint32_t n, uint8_t d) {
+#if defined(__AVR__)
+  uint8_t r = static_cast<uint8_t>(ratio_top(n));  // n / 2^15 < d <= 255
+  uint32_t q = ratio_rest(n);  // n's 15 low bits, then the quotient's
+  uint8_t count = 32;
+  __asm__(
+      "1:                 \n\t"
+      "lsl  %A[q]         \n\t"
+      "rol  %B[q]         \n\t"
+      "rol  %C[q]         \n\t"
+      "rol  %D[q]         \n\t"
+      "rol  %[r]          \n\t"  // carry: the remainder reached 256 > d
+      "brcs 2f            \n\t"
+      "cp   %[r], %[d]    \n\t"
+      "brcs 3f            \n\t"
+      "2:                 \n\t"
+      "sub  %[r], %[d]    \n\t"  // (2 r + bit - d) < d: exact modulo 256
+      "inc  %A[q]         \n\t"  // the quotient bit (bit 0 is 0 after the shift)
+      "3:                 \n\t"
+      "dec  %[c]          \n\t"
+      "brne 1b            \n\t"
+      : [q] "+r"(q), [r] "+r"(r), [c] "+r"(count)
+      : [d] "r"(d));
+  return q;
+#else
+  return ratio_q17_portable(n, d);
+#endif
+}
+}  // namespace fixed_detail
+
+// n / d in Q16.16, rounded half up, saturated (the mean of a tick's ADC samples, scalar.hpp):
+// restoring division of n 2^17 by an 8-bit d. The top bits of n start the remainder (n / 2^15 < d,
+// else the quotient overflows), which then stays below d: 32 steps of one shifted-in bit each.
+// On the AVR the steps are ~12 cycles of assembly (the remainder in one register, its ninth bit in
+// the carry), ~400 in all; a float division and the conversions around it cost ~800, the same
+// loop in C ~1200.
+template <>
+inline Fixed ratio<Fixed>(uint32_t n, uint8_t d) {
+  if (fixed_detail::hi16(n) >= 0x8000u || fixed_detail::ratio_top(n) >= d) return Fixed::max();  // also d == 0
+  const uint32_t q = fixed_detail::ratio_q17(n, d);
+  return Fixed::from_raw(static_cast<int32_t>((q >> 1) + (q & 1u)));
+}
+// x / 2^31 for x <= 2^31 in Q16.16, rounded: x / 2^15 as (x / 2^16) 2 + bit 15, plus bit 14.
+template <>
+inline Fixed from_q31<Fixed>(uint32_t x) {
+  using namespace fixed_detail;
+  const uint16_t lo = lo16(x);
+  return Fixed::from_raw(static_cast<int32_t>((static_cast<uint32_t>(hi16(x)) << 1) + ((lo & 0x8000u) != 0 ? 1u : 0u) +
+                                              ((lo & 0x4000u) != 0 ? 1u : 0u)));
+}
+// floor(x) for x >= 0; 0 for x < 0.
+inline uint16_t floor_u16(Fixed x) { return x.raw() <= 0 ? 0u : fixed_detail::hi16(static_cast<uint32_t>(x.raw())); }
 
 // Every Fixed is a number; overflow saturates instead of producing inf/NaN.
 constexpr bool is_finite(Fixed) { return true; }

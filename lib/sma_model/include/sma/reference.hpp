@@ -74,11 +74,24 @@ struct Reference {
 template <class T>
 class ReferenceGen {
  public:
-  explicit ReferenceGen(const Reference& r) : r_(r) {
+  // `dt`: the tick of at_tick() (0: at() only).
+  explicit ReferenceGen(const Reference& r, double dt = 0.0) : r_(r) {
     lo_ = from_double<T>(r.sine_lo_mm);
     span_ = from_double<T>(r.sine_hi_mm - r.sine_lo_mm);
     inv_step_s_ = 1.0 / r.step_s;
     inv_period_s_ = 1.0 / r.sine_period_s;
+    // The sine's phase advance per tick in Q0.32 turns, rounded: the phase error after k ticks
+    // is below k / 2^33 turn (3 periods of the paper's sine: 2e-6 turn).
+    // (A period shorter than the tick, or none, gives no tick path: 0.)
+    const double turns = dt * inv_period_s_;
+    turns_per_tick_ = turns < 1.0 ? static_cast<uint32_t>(turns * 4294967296.0 + 0.5) : 0u;
+  }
+
+  // Reference at tick k of the run (t = k dt): the sine's phase from the tick count in integers
+  // (Q0.32 turns, wrapping once per period), no time in T or float; the other kinds at(k dt).
+  T at_tick(uint32_t k, double dt) const {
+    if (r_.kind == RefKind::Sine) return sine_at(k * turns_per_tick_);
+    return at(static_cast<double>(k) * dt);
   }
 
   // Reference at t seconds (t >= 0).
@@ -93,12 +106,7 @@ class ReferenceGen {
       case RefKind::Sine: {
         // Phase reduced to [0, 1) in double (float on AVR) so T never sees a large angle.
         const double cycles = t * inv_period_s_;
-        const T phase = from_double<T>(cycles - static_cast<double>(static_cast<long>(cycles)));
-        // lo + span (1 - cos 2 pi phase) / 2 = lo + span cos_ramp(x), x = 2 phase folded to
-        // [0, 1]: the phase curves' shape (scalar.hpp), so the image carries one cosine.
-        T x = phase + phase;
-        if (x > T(1)) x = T(2) - x;
-        return lo_ + span_ * cos_ramp(x);
+        return sine_at(static_cast<uint32_t>((cycles - static_cast<double>(static_cast<long>(cycles))) * 4294967296.0));
       }
       case RefKind::Trajectory: {
         if (r_.n_points == 0) return T(0);
@@ -118,10 +126,19 @@ class ReferenceGen {
   const Reference& config() const { return r_; }
 
  private:
+  // The sine at phase p (Q0.32 turns): lo + span (1 - cos 2 pi p) / 2 = lo + span cos_ramp(x),
+  // x = 2 p folded to [0, 1]: the phase curves' shape (scalar.hpp), so the image carries one
+  // cosine. x in Q1.31 is 2 p for p <= 1/2, 2 (1 - p) above.
+  T sine_at(uint32_t p) const {
+    const uint32_t x31 = p <= 0x80000000u ? p : 0u - p;
+    return lo_ + span_ * cos_ramp(from_q31<T>(x31));
+  }
+
   Reference r_;
   T lo_, span_;
   // The tick multiplies: a division costs ~500 AVR cycles of the control section.
   double inv_step_s_, inv_period_s_;
+  uint32_t turns_per_tick_;  // the sine's phase per tick of at_tick(), Q0.32 turns
 };
 
 }  // namespace sma

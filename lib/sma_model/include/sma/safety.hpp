@@ -19,8 +19,10 @@
 // console's `heat` flag, console.hpp); a trip clears that flag as well.
 //
 // Pure logic, no I/O: the firmware feeds one SafetyInput per tick and applies gate()'s output.
-// Numbers are `double` (a 32-bit float on AVR): the latch runs at the tick rate and only
-// compares.
+// The latch compares in the scalar S of the control path (SafetyLatch<S>; Safety is the double
+// one): the board's tick hands over its own numbers, and a Q16.16 board compares integers instead
+// of converting four values to float every tick. The thresholds are kept in S as well (converted
+// when the config changes); the config itself stays double (what was set, reported exactly).
 #ifndef SMA_SAFETY_HPP
 #define SMA_SAFETY_HPP
 
@@ -78,30 +80,40 @@ struct SafetyConfig {
   }
 };
 
-// What the firmware knows at one tick.
-struct SafetyInput {
-  double sensor_v = 2.5;        // average analog voltage of the tick's samples, V
+// What the firmware knows at one tick, in the latch's scalar S.
+template <class S>
+struct SafetyInputOf {
+  S sensor_v = S(2.5);          // average analog voltage of the tick's samples, V
   bool samples_in_range = true; // false if any sample of the window was out of range
-  double measured_mm = 0.0;
-  double wire_temp_C = 22.0;    // controller's eq-1 estimate
-  double command_v = 0.0;       // controller output, V
+  S measured_mm = S(0);
+  S wire_temp_C = S(22);        // controller's eq-1 estimate
+  S command_v = S(0);           // controller output, V
   bool heating = false;         // the loop is commanded to heat (any mode but off)
 };
 
-class Safety {
+template <class S>
+class SafetyLatch {
  public:
   // (constexpr: a latch of constant config is a constant the board copies from flash.)
-  constexpr explicit Safety(const SafetyConfig& cfg = SafetyConfig()) : cfg_(cfg), link_ticks_(link_ticks(cfg)) {}
+  // The config is kept as the thresholds in S and the link timeout in ticks; the limit also as
+  // set (t_limit_C(): what `tlim` reports).
+  constexpr explicit SafetyLatch(const SafetyConfig& cfg = SafetyConfig())
+      : t_limit_C_(cfg.t_limit_C), t_limit_(S(cfg.t_limit_C)), v_min_(S(cfg.sensor_v_min)),
+        v_max_(S(cfg.sensor_v_max)), link_ticks_(link_ticks(cfg)) {}
 
   void set_config(const SafetyConfig& cfg) {
-    cfg_ = cfg;
+    t_limit_C_ = cfg.t_limit_C;
+    t_limit_ = from_double<S>(cfg.t_limit_C);
+    v_min_ = from_double<S>(cfg.sensor_v_min);
+    v_max_ = from_double<S>(cfg.sensor_v_max);
     link_ticks_ = link_ticks(cfg);
   }
-  const SafetyConfig& config() const { return cfg_; }
+  double t_limit_C() const { return t_limit_C_; }
   // The console's `tlim`; false (nothing changes) outside 30..150 or NaN.
   bool set_limit(double t_C) {
     if (!(t_C >= 30.0 && t_C <= 150.0)) return false;
-    cfg_.t_limit_C = t_C;
+    t_limit_C_ = t_C;
+    t_limit_ = from_double<S>(t_C);
     return true;
   }
 
@@ -118,22 +130,21 @@ class Safety {
 
   // One tick: checks the inputs, latches the first fault, returns the voltage to apply
   // (the command, or 0 once latched).
-  double gate(const SafetyInput& in) {
+  S gate(const SafetyInputOf<S>& in) {
     if (since_rx_ < UINT32_MAX) ++since_rx_;
     const Fault f = classify(in);
     if (f != Fault::None) trip(f);
-    if (fault_ != Fault::None) return 0.0;
-    return in.command_v > 0.0 ? in.command_v : 0.0;
+    if (fault_ != Fault::None) return S(0);
+    return positive(in.command_v) ? in.command_v : S(0);
   }
 
   // What is wrong with an input, regardless of the latch (Fault::None if nothing).
-  Fault classify(const SafetyInput& in) const {
+  Fault classify(const SafetyInputOf<S>& in) const {
     if (!is_finite(in.sensor_v) || !is_finite(in.measured_mm) || !is_finite(in.wire_temp_C) ||
         !is_finite(in.command_v))
       return Fault::NotFinite;
-    if (!in.samples_in_range || in.sensor_v < cfg_.sensor_v_min || in.sensor_v > cfg_.sensor_v_max)
-      return Fault::Sensor;
-    if (in.wire_temp_C > cfg_.t_limit_C) return Fault::OverTemp;
+    if (!in.samples_in_range || in.sensor_v < v_min_ || in.sensor_v > v_max_) return Fault::Sensor;
+    if (in.wire_temp_C > t_limit_) return Fault::OverTemp;
     if (link_ticks_ > 0 && in.heating && since_rx_ > link_ticks_) return Fault::LinkLoss;
     return Fault::None;
   }
@@ -165,12 +176,17 @@ class Safety {
     return n > 0 ? n : 1;
   }
 
-  SafetyConfig cfg_;
+  double t_limit_C_;
+  S t_limit_, v_min_, v_max_;  // the thresholds in S
   Fault fault_ = Fault::None;
   uint16_t trips_ = 0;
   uint32_t since_rx_ = 0;
   uint32_t link_ticks_;
 };
+
+// The latch of host code and tests: double throughout.
+typedef SafetyInputOf<double> SafetyInput;
+typedef SafetyLatch<double> Safety;
 
 }  // namespace sma
 

@@ -116,6 +116,18 @@ inline bool abs_below(float x, float limit) { return (float_bits(x) & 0x7FFFFFFF
 template <class T> inline T from_double(double x) { return static_cast<T>(x); }
 template <class T> inline double to_double(T x) { return static_cast<double>(x); }
 
+// The board's integers into the control path's scalar (fixed.hpp has the Q16.16 versions, all
+// integer): the tick's numbers start and end as integers (ADC counts, ticks, PWM counts).
+// n / d, d > 0: the mean of a tick's ADC samples (sum n of d samples).
+template <class T> inline T ratio(uint32_t n, uint8_t d) { return static_cast<T>(n) / static_cast<T>(d); }
+// x / 2^31 for x <= 2^31: a phase in Q1.31 (ReferenceGen's sine).
+template <class T> inline T from_q31(uint32_t x) { return static_cast<T>(static_cast<double>(x) * (1.0 / 2147483648.0)); }
+// floor(x) for 0 <= x < 65536 (PWM counts).
+inline uint16_t floor_u16(float x) { return static_cast<uint16_t>(x); }
+#if !defined(__AVR__)
+inline uint16_t floor_u16(double x) { return static_cast<uint16_t>(x); }
+#endif
+
 // ---- the two shapes of the Liang-Rogers model, on a normalised argument ---------------------
 // cos_ramp(x) = 0.5 [1 - cos(pi x)], x clamped to [0, 1]: the shape of eqs 2, 3 and 11.
 template <class T> inline T cos_ramp(T x) {

@@ -32,7 +32,9 @@ class SensorPredictor {
         inv_gain_(from_double<T>(1.0 / fx.sensor_gain)),
         offset_(from_double<T>(fx.sensor_offset_mm)),
         a_(from_double<T>(1.0 - decay_factor(dt / (fx.sensor_lag_s + fx.sensor_delay_s + 1e-9)))),
-        dynamic_(fx.sensor_lag_s + fx.sensor_delay_s > 0.0),
+        path_(fx.sensor_lag_s + fx.sensor_delay_s > 0.0             ? Path::Predicted
+              : fx.sensor_gain != 1.0 || fx.sensor_offset_mm != 0.0 ? Path::Calibrated
+                                                                    : Path::Raw),
         y_s_(T(0)) {}
 
   // Restart from a wire at rest at T0 with fraction eps0 (a mode change).
@@ -44,20 +46,22 @@ class SensorPredictor {
   // One tick: the raw measurement and the controller's wire temperature estimate for this
   // instant (before this tick's voltage) -> the position the controller should act on.
   T correct(T measured, T wire_temperature) {
+    if (path_ == Path::Raw) return measured;  // no effect uploaded: nothing to undo (a multiply less a tick)
     const T d = (measured - offset_) * inv_gain_;  // calibration, inverted
-    if (!dynamic_) return d;
+    if (path_ == Path::Calibrated) return d;
     const T y_m = mech_.displacement(walker_.update(wire_temperature), wire_temperature);
     y_s_ = y_s_ + a_ * (y_m - y_s_);
     return d + (y_m - y_s_);
   }
 
-  bool dynamic() const { return dynamic_; }
+  bool dynamic() const { return path_ == Path::Predicted; }
 
  private:
   Hysteresis<T> walker_;
   Mechanics<T> mech_;
   T inv_gain_, offset_, a_;
-  bool dynamic_;
+  // What correct() has to do: nothing, the calibration, or the calibration and the predictor.
+  enum class Path : uint8_t { Raw, Calibrated, Predicted } path_;
   T y_s_;
 };
 
