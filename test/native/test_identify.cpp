@@ -129,7 +129,7 @@ TEST(Identify, FitResidualTiesTheMinorLoopBandToTheFittedBands) {
   for (const ParamSpec& s : fittable_params(pb.start))
     if (s.name == "T_AS" || s.name == "T_AF" || s.name == "T_MF" || s.name == "e") {
       pb.specs.push_back(s);
-      pb.x0.push_back(*s.ref(pb.start, s.index));
+      pb.x0.push_back(*s.ref(pb.start));
     }
   Eigen::VectorXd x(4);
   x << -3.0, -3.0, 1.5, 1.5;  // scale 1 K: T_AS, T_AF -3 K; T_MF, e (so q + e) +1.5 K
@@ -171,7 +171,7 @@ TEST(Identify, FitResidualIsZeroAtTheTrueWireOverSeveralRuns) {
   for (const ParamSpec& s : fittable_params(pb.start))
     if (s.name == "h" || s.name == "g") {
       pb.specs.push_back(s);
-      pb.x0.push_back(*s.ref(pb.start, s.index));
+      pb.x0.push_back(*s.ref(pb.start));
     }
   Eigen::VectorXd f;
   ASSERT_TRUE(pb.residual_at(Eigen::VectorXd::Zero(2), f));
@@ -182,4 +182,64 @@ TEST(Identify, FitResidualIsZeroAtTheTrueWireOverSeveralRuns) {
   fun.df(Eigen::VectorXd::Zero(2), J);
   EXPECT_GT(J.col(0).norm(), 0.0);  // a log that heats and cools excites h and g
   EXPECT_GT(J.col(1).norm(), 0.0);
+}
+
+// The fit's parameters are the parameter table's keys (sma/param_table.hpp): each name is the
+// one the board's console looks up (an effect's parameter alone, a loop's field counted from 1
+// for loop<i-1>.<field>), its bounds are the table's range, its value is the table's field,
+// every effect of the vocabulary can be fitted, and the optimiser never leaves the range.
+TEST(Identify, FittableParametersAreTheParameterTablesKeys) {
+  using sma::param::Kind;
+  Model m;
+  const std::vector<ParamSpec> specs = fittable_params(m);
+  size_t effects = 0;
+  for (const ParamSpec& s : specs) {
+    SCOPED_TRACE(s.name);
+    ASSERT_NE(s.key, sma::param::kNoKey);
+    std::string board = s.name;  // as the console spells it
+    if (key_kind(s.key) == Kind::Knot) {
+      const size_t digit = s.name.find_first_of("0123456789");
+      ASSERT_NE(digit, std::string::npos);
+      board = "loop" + std::to_string(std::stoi(s.name.substr(digit)) - 1) + "." + s.name.substr(0, digit);
+    }
+    EXPECT_EQ(sma::param::key_index(board.c_str(), static_cast<uint8_t>(board.size())), s.key);
+    double lo = 0, hi = 0;
+    sma::param::key_range(s.key, lo, hi);
+    EXPECT_EQ(s.lo, lo);
+    EXPECT_EQ(s.hi, hi);
+    if (s.log) {
+      EXPECT_GT(s.lo, 0.0);  // a log step needs a positive quantity
+    }
+    EXPECT_GT(s.scale, 0.0);
+    EXPECT_EQ(s.ref(m), sma::param::value_ptr(m.p, m.fx, s.key));
+    effects += key_kind(s.key) == Kind::Effect;
+    // The optimiser's value stays inside the range however far x goes.
+    FitResidual pb;
+    pb.specs = {s};
+    pb.x0 = {*s.ref(m) != 0 ? *s.ref(m) : 0.5 * (lo + hi)};
+    EXPECT_LE(pb.value(Eigen::VectorXd::Constant(1, 1e12), 0), hi);
+    EXPECT_GE(pb.value(Eigen::VectorXd::Constant(1, -1e12), 0), lo);
+  }
+  size_t effect_rows = 0;
+  for (uint8_t k = 0; k < sma::param::kKeys; ++k) effect_rows += key_kind(k) == Kind::Effect;
+  EXPECT_EQ(effects, effect_rows);
+  // The paper's identified set (section III.B) is among them, the loops of the model included.
+  for (const std::string& n : default_fit_names(m)) {
+    bool found = false;
+    for (const ParamSpec& s : specs) found = found || s.name == n;
+    EXPECT_TRUE(found) << n;
+  }
+  // Where the values live, by the paper's names.
+  auto spec = [&specs](const std::string& n) {
+    for (const ParamSpec& s : specs)
+      if (s.name == n) return s;
+    ADD_FAILURE() << n;
+    return specs[0];
+  };
+  EXPECT_EQ(spec("h").ref(m), &m.p.h);
+  EXPECT_EQ(spec("T_MSf").ref(m), &m.p.T_MSf);
+  EXPECT_EQ(spec("j2").ref(m), &m.p.loops[1].j);
+  EXPECT_EQ(spec("T_ii3").ref(m), &m.p.loops[2].T_ii);
+  EXPECT_EQ(spec("delay_s").ref(m), &m.fx.sensor_delay_s);
+  EXPECT_EQ(spec("alpha_per_K").ref(m), &m.fx.thermal_expansion_per_K);
 }
