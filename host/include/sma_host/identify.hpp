@@ -307,14 +307,14 @@ inline Uncertainty uncertainty(const Eigen::MatrixXd& J, const Eigen::VectorXd& 
 // non-physical set, and the forward-difference Jacobian Eigen's Levenberg-Marquardt wants.
 
 // A fitted parameter: a flat key of the parameter table (sma/param_table.hpp), which gives its
-// name, its place in a Model and its physical bounds, or the sensor zero of one run of several.
+// name and its place in a Model, or the sensor zero of one run of several.
 struct ParamSpec {
   std::string name;  // fit_name(key) (h, T_AS, delay_s, j1, T_ii2), or offset_mm[<log>]
   double scale;      // normalisation: one unit of the optimiser's x (and the Jacobian step / 100)
   bool log;          // a quantity the table bounds away from zero, fitted as log (h, g, R, gain)
   uint8_t key;       // flat key; kNoKey: the sensor zero of run `run` (> 0) of several logs
   size_t run = 0;
-  double lo = -INFINITY, hi = INFINITY;  // physical bounds (the value is clamped to them)
+  double lo = -INFINITY, hi = INFINITY;  // search clamp (not the table's range: fit_step)
 
   double* ref(Model& m) const { return key == sma::param::kNoKey ? nullptr : &value(m, key); }
   bool is(sma::param::Row r) const {
@@ -322,38 +322,47 @@ struct ParamSpec {
   }
 };
 
-// The optimiser's unit step of each row the engine fits (0: a row it never fits: rho, c, d0,
-// L0 only enter through G and C, T_MS follows T_MF, m is Table II's, the loops' T_i sit at the
-// log's reversals). What the step is not, the table says: name, bounds, where the value lives.
-inline double fit_scale(sma::param::Row r, const Model& m) {
+// How the optimiser moves a row the engine fits: its unit step (scale 0: a row it never fits:
+// rho, c, d0, L0 only enter through G and C, T_MS follows T_MF, m is Table II's, the loops' T_i
+// sit at the log's reversals) and its search clamp.
+// The table's range is not a clamp: a set outside it fails Params/Effects::check() and costs the
+// penalty residual, so LM rejects the step and shortens it. A clamp at the range would turn the
+// outside into a plateau: a parameter LM overshoots onto its bound (a loop's j at 0) keeps a
+// zero Jacobian column there and never comes back, and the fit ends elsewhere. The only clamps
+// are the sensor effects' and k_R's search ranges (the discrepancy vocabulary's, inside the table's).
+struct FitStep {
+  double scale;
+  double lo = -INFINITY, hi = INFINITY;
+};
+inline FitStep fit_step(sma::param::Row r, const Model& m) {
   using R = sma::param::Row;
   switch (r) {
     case R::T_AS: case R::T_AF: case R::T_MF: case R::T_s: case R::T_f: case R::T_MSs: case R::T_MSf:
     case R::q: case R::e: case R::T_amb: case R::loop_T_ii:
-      return 1.0;  // K
-    case R::h: return 0.1;  // of log h
-    case R::g: case R::R: case R::gain: return 0.05;  // of the log
-    case R::loop_j: return 0.02;
-    case R::offset_mm: return 0.01 * m.p.g;  // 1 % of the stroke
-    case R::offset_K: return 2.0;
-    case R::delay_s: return 0.1;
-    case R::tau_s: return 0.2;
-    case R::beta_per_K: return 1e-3;
-    case R::k_R: return 0.1;
-    case R::L_J: return 0.5;
-    case R::alpha_per_K: return 1e-6;
-    default: return 0.0;
+      return {1.0};  // K
+    case R::h: return {0.1};  // of log h
+    case R::g: case R::R: case R::gain: return {0.05};  // of the log
+    case R::loop_j: return {0.02};
+    case R::offset_mm: return {0.01 * m.p.g};  // 1 % of the stroke
+    case R::offset_K: return {2.0};
+    case R::delay_s: return {0.1, 0.0, 2.0};
+    case R::tau_s: return {0.2, 0.0, 5.0};
+    case R::beta_per_K: return {1e-3};
+    case R::k_R: return {0.1, -0.5, 1.0};
+    case R::L_J: return {0.5};
+    case R::alpha_per_K: return {1e-6};
+    default: return {0.0};
   }
 }
 
-// The spec of flat key k from the table: its name, its bounds, log if the table bounds it away
-// from zero; scale 0 for a key the engine does not fit.
+// The spec of flat key k: name and place from the table, log if the table bounds it away from
+// zero, step and clamp from fit_step; scale 0 for a key the engine does not fit.
 inline ParamSpec param_spec(uint8_t k, const Model& m) {
   const sma::param::Place at = sma::param::locate(k);
-  const sma::param::RowInfo row = sma::param::row(at.row);
-  ParamSpec s{fit_name(k), fit_scale(static_cast<sma::param::Row>(at.row), m), row.lo > 0, k};
-  s.lo = row.lo;
-  s.hi = row.hi;
+  const FitStep st = fit_step(static_cast<sma::param::Row>(at.row), m);
+  ParamSpec s{fit_name(k), st.scale, sma::param::row(at.row).lo > 0, k};
+  s.lo = st.lo;
+  s.hi = st.hi;
   return s;
 }
 
