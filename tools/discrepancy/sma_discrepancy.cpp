@@ -92,8 +92,7 @@ int run(int argc, char** argv) {
     else if (a == "--no-plots") plots = false;
     else if (a == "--reheat") {
       reheat_arg = args.value(a);
-      if (reheat_arg != "return_point" && reheat_arg != "new_loop")
-        throw Error("--reheat must be return_point or new_loop, not '" + reheat_arg + "'");
+      sma_tools::reheat_option(reheat_arg);
       opt.choose_reading = false;
     }
     else if (a == "--validate") {
@@ -107,9 +106,11 @@ int run(int argc, char** argv) {
           continue;
         }
         const sma_host::BaseSpec* b = sma_host::find_base(n);
-        if (!b)
-          throw Error("--refit-base: unknown parameter '" + n +
-                      "' (all, h, T_AS, T_AF, T_MF, q, e, T_MSs, T_MSf, g, j1..j3, T_ii1..T_ii3, T_amb)");
+        if (!b) {
+          std::string known = "all";
+          for (const sma_host::BaseSpec& k : sma_host::refittable_base()) known += ", " + k.name;
+          throw Error("--refit-base: unknown parameter '" + n + "' (" + known + ")");
+        }
         opt.refit_base.push_back(b);
       }
     }
@@ -140,7 +141,7 @@ int run(int argc, char** argv) {
   sma_tools::Model model;
   if (!params_path.empty()) model = sma_tools::read_model(params_path);
   if (!reheat_arg.empty())
-    model.p.reheat = reheat_arg == "new_loop" ? sma::Reheat::new_loop : sma::Reheat::return_point;
+    model.p.reheat = sma_tools::reheat_option(reheat_arg);
   if (refit_all)
     for (const sma_host::BaseSpec* b : sma_host::all_base(model.p))
       if (std::find(opt.refit_base.begin(), opt.refit_base.end(), b) == opt.refit_base.end()) opt.refit_base.push_back(b);
@@ -149,9 +150,7 @@ int run(int argc, char** argv) {
   {
     std::string asked, lacking;
     for (const sma_host::BaseSpec* b : opt.refit_base) {
-      const std::string n = b->name;
-      if (n == "T_MF" || n == "q" || n == "e" || n == "T_MSs" || n == "T_MSf" || n[0] == 'j' || n.compare(0, 4, "T_ii") == 0)
-        asked += (asked.empty() ? "" : ", ") + n;
+      if (sma_host::cooling_param(b->key)) asked += (asked.empty() ? "" : ", ") + b->name;
     }
     size_t cooling = 0;
     for (const sma_host::RigLog& fl : files) {
@@ -325,7 +324,7 @@ int run(int argc, char** argv) {
       << ", \"max_mm_heating\": " << number(r.e.heating.max) << ", \"rms_mm_cooling\": " << number(r.e.cooling.rms)
       << ", \"max_mm_cooling\": " << number(r.e.cooling.max) << "}";
   }
-  j << "],\n  \"reheat\": {\"reading\": " << quote(sma_host::reading_name(d.params.reheat))
+  j << "],\n  \"reheat\": {\"reading\": " << quote(sma_host::reheat_name(d.params.reheat))
     << ", \"rms_mm_heldout\": {\"return_point\": " << number(d.reading_rms_test[0])
     << ", \"new_loop\": " << number(d.reading_rms_test[1]) << "}, \"why\": " << quote(d.reading_why) << "}";
   j << ",\n  \"warnings\": [";

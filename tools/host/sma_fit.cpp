@@ -78,7 +78,8 @@ namespace {
 using sma_host::FitFunctor;
 using sma_host::FitResidual;
 using sma_host::ParamSpec;
-namespace ref = sma_host::ref;
+using Row = sma::param::Row;
+using sma::param::key_of;
 using Problem = sma_host::FitResidual;
 using LmFunctor = sma_host::FitFunctor;
 std::vector<ParamSpec> all_specs(const Model& m) { return sma_host::fittable_params(m); }
@@ -218,8 +219,7 @@ int run(int argc, char** argv) {
     else if (k == "--band-hint") band_hint = a.number(k);
     else if (k == "--reheat") {
       reheat_arg = a.value(k);
-      if (reheat_arg != "return_point" && reheat_arg != "new_loop")
-        throw Error("--reheat must be return_point or new_loop, not '" + reheat_arg + "'");
+      reheat_option(reheat_arg);
     }
     else if (!k.empty() && k[0] == '-') throw Error("unknown option '" + k + "' (see --help)");
     else log_paths.push_back(k);
@@ -232,7 +232,7 @@ int run(int argc, char** argv) {
   // the logs themselves plug in here, as a function (logs, Model) -> Model.
   Model start = read_model(params_path);
   if (!reheat_arg.empty())
-    start.p.reheat = reheat_arg == "new_loop" ? sma::Reheat::new_loop : sma::Reheat::return_point;
+    start.p.reheat = reheat_option(reheat_arg);
   const std::string start_name = params_path.empty() ? "the paper's Table II" : params_path;
   std::vector<RigLog> logs;
   std::vector<std::string> notes;
@@ -380,15 +380,20 @@ int run(int argc, char** argv) {
       if (s.name == n) throw Error("--fit: '" + n + "' given twice");
     pb.specs.push_back(*found);
     Model tmp = start;
-    pb.x0.push_back(*found->ref(tmp, found->index));
+    pb.x0.push_back(*found->ref(tmp));
   }
   // A sensor zero per run after the first (a potentiometer's zero moves between runs): started
   // at the run's first readings, fitted with the rest when offset_mm is.
-  const bool fit_offset = std::find(names.begin(), names.end(), "offset_mm") != names.end();
+  const ParamSpec zero = sma_host::param_spec(key_of<Row::offset_mm>(), start);
+  const bool fit_offset = std::find(names.begin(), names.end(), zero.name) != names.end();
   for (size_t r = 1; r < logs.size(); ++r) {
     pb.run_offset.push_back(start_offset(logs[r]));
     if (fit_offset) {
-      pb.specs.push_back({"offset_mm[" + logs[r].name + "]", 0.01 * start.p.g, false, nullptr, static_cast<int>(r)});
+      ParamSpec run_zero = zero;
+      run_zero.name += "[" + logs[r].name + "]";
+      run_zero.key = sma::param::kNoKey;
+      run_zero.run = r;
+      pb.specs.push_back(run_zero);
       pb.x0.push_back(pb.run_offset.back());
     }
   }
@@ -397,13 +402,9 @@ int run(int argc, char** argv) {
   // A fit of the cooling parameters needs a log that cools the wire back through its
   // transformation: refused, naming the logs and the parameters, rather than misfitted.
   {
-    const char* cooling[] = {"T_MF", "q", "e", "T_MSs", "T_MSf"};
     std::vector<std::string> asked;
-    for (const ParamSpec& sp : pb.specs) {
-      bool c = sp.ref == ref::j || sp.ref == ref::Tii;
-      for (const char* n : cooling) c = c || sp.name == n;
-      if (c) asked.push_back(sp.name);
-    }
+    for (const ParamSpec& sp : pb.specs)
+      if (sma_host::cooling_param(sp.key)) asked.push_back(sp.name);
     std::vector<std::string> no_cooling;
     for (const RigLog& l : logs)
       if (!sma_host::cools_in_log(l)) no_cooling.push_back(l.name);
@@ -426,16 +427,16 @@ int run(int argc, char** argv) {
   // becomes the start of the full fit.
   std::string stage1_note;
   {
-    const char* major[] = {"h", "T_AS", "T_AF", "T_MF", "g", "offset_mm", "T_amb", "gain", "R"};
+    const Row major[] = {Row::h, Row::T_AS, Row::T_AF, Row::T_MF, Row::g, Row::offset_mm, Row::T_amb, Row::gain, Row::R};
     Problem p1 = pb;
     p1.specs.clear();
     p1.x0.clear();
     bool has_h = false;
     for (size_t i = 0; i < pb.specs.size(); ++i)
-      for (const char* mname : major)
-        if (pb.specs[i].name == mname || (!pb.specs[i].ref && std::string(mname) == "offset_mm")) {
+      for (Row r : major)
+        if (pb.specs[i].is(r) || (pb.specs[i].key == sma::param::kNoKey && r == Row::offset_mm)) {
           p1.specs.push_back(pb.specs[i]);
-          has_h = has_h || pb.specs[i].name == "h";
+          has_h = has_h || pb.specs[i].is(Row::h);
         }
     if (p1.specs.size() >= 1 && p1.specs.size() < pb.specs.size()) {
       std::vector<double> mults = {1.0};
@@ -449,7 +450,7 @@ int run(int argc, char** argv) {
         p1.start.p.h = pb.start.p.h * mult;
         p1.x0.clear();
         for (const auto& sp : p1.specs)
-          p1.x0.push_back(sp.ref ? *sp.ref(p1.start, sp.index) : pb.run_offset[static_cast<size_t>(sp.index) - 1]);
+          p1.x0.push_back(sp.ref(p1.start) ? *sp.ref(p1.start) : pb.run_offset[sp.run - 1]);
         LmFunctor f1{&p1};
         Eigen::VectorXd x1 = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(p1.specs.size()));
         Eigen::LevenbergMarquardt<LmFunctor> lm1(f1);
@@ -472,8 +473,7 @@ int run(int argc, char** argv) {
       pb.start = best;
       pb.run_offset = best_run_offset;
       for (size_t i = 0; i < pb.specs.size(); ++i)
-        pb.x0[i] = pb.specs[i].ref ? *pb.specs[i].ref(best, pb.specs[i].index)
-                                   : pb.run_offset[static_cast<size_t>(pb.specs[i].index) - 1];
+        pb.x0[i] = pb.specs[i].ref(best) ? *pb.specs[i].ref(best) : pb.run_offset[pb.specs[i].run - 1];
       stage1_note = "stage 1 (major loop";
       stage1_note += has_h ? ", best of 7 starts of h: x" + fixed(best_mult, 2) + ")" : ")";
       stage1_note += ": RMS " + fmt(std::sqrt(best_sse / static_cast<double>(pb.rows()))) + " mm";
@@ -539,14 +539,14 @@ int run(int argc, char** argv) {
       std::vector<ParamSpec> keep;
       std::vector<double> keep_x0;
       for (size_t i = 0; i < pb.specs.size(); ++i)
-        if (pb.specs[i].ref != ref::j && pb.specs[i].ref != ref::Tii) {
+        if (!pb.specs[i].is(Row::loop_j) && !pb.specs[i].is(Row::loop_T_ii)) {
           keep.push_back(pb.specs[i]);
-          keep_x0.push_back(pb.specs[i].ref ? *pb.specs[i].ref(m, pb.specs[i].index) : pb.x0[i]);
+          keep_x0.push_back(pb.specs[i].ref(m) ? *pb.specs[i].ref(m) : pb.x0[i]);
         }
       for (const ParamSpec& sp : all_specs(m))
-        if (sp.ref == ref::j || sp.ref == ref::Tii) {
+        if (sp.is(Row::loop_j) || sp.is(Row::loop_T_ii)) {
           keep.push_back(sp);
-          keep_x0.push_back(*sp.ref(m, sp.index));
+          keep_x0.push_back(*sp.ref(m));
         }
       pb.specs = keep;
       pb.x0 = keep_x0;
@@ -568,8 +568,8 @@ int run(int argc, char** argv) {
     for (size_t i = 0; i < pb.specs.size(); ++i) {
       if (J.col(static_cast<Eigen::Index>(i)).norm() <= 1e-9 * colmax) {
         const ParamSpec& sp = pb.specs[i];
-        const bool tied = sp.ref == ref::Tii || sp.ref == ref::TMSs || sp.ref == ref::TMSf || sp.ref == ref::Ts ||
-                          sp.ref == ref::Tf;
+        const bool tied = sp.is(Row::loop_T_ii) || sp.is(Row::T_MSs) || sp.is(Row::T_MSf) || sp.is(Row::T_s) ||
+                          sp.is(Row::T_f);
         notes.push_back(sp.name + ": not fitted: this log does not excite it (no sensitivity after stage 1); " +
                         (tied ? std::string("it follows its transformation band from ") + fmt(pb.x0[i], 6)
                               : "kept at its start value " + fmt(pb.x0[i], 6)));
@@ -677,8 +677,8 @@ int run(int argc, char** argv) {
     (void)ii;
     sigma[i] = unc.sigma[i];
     const ParamSpec& sp = pb.specs[i];
-    value[i] = sp.ref ? *sp.ref(fitted, sp.index) : pb.model_for_run(fitted, x, static_cast<size_t>(sp.index)).fx.sensor_offset_mm;
-    startv[i] = sp.ref ? *sp.ref(start, sp.index) : start_offset(logs[static_cast<size_t>(sp.index)]);
+    value[i] = sp.ref(fitted) ? *sp.ref(fitted) : pb.model_for_run(fitted, x, sp.run).fx.sensor_offset_mm;
+    startv[i] = sp.ref(start) ? *sp.ref(start) : start_offset(logs[sp.run]);
   }
   for (size_t i = 0; i < np; ++i) {
     if (unresolved[i])
@@ -714,7 +714,7 @@ int run(int argc, char** argv) {
     notes.push_back("T_MS set to T_MF + 1 = " + fixed(fitted.p.T_MS, 2) +
                     " to stay > T_MF (T_MS itself is not used by the model)");
   check_model(fitted, "fitted parameters");
-  if (!pb.fitted(ref::Ts) || !pb.fitted(ref::Tf))
+  if (!pb.fitted(Row::T_s) || !pb.fitted(Row::T_f))
     notes.push_back("minor-loop band T_s..T_f = " + fixed(fitted.p.T_s, 2) + ".." + fixed(fitted.p.T_f, 2) +
                     " degC (start " + fixed(start.p.T_s, 2) + ".." + fixed(start.p.T_f, 2) +
                     "), T_MSs, T_MSf = " + fixed(fitted.p.T_MSs, 2) + ", " + fixed(fitted.p.T_MSf, 2) +

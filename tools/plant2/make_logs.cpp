@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 #include "excitations.hpp"
+#include "sma_host/model.hpp"
 #include "sma_host/plant_b.hpp"
 #include "sma_host/plant_b_sensor.hpp"
 
@@ -23,9 +24,11 @@ using sma_host::plant_b::SensorEffects;
 using sma_host::plant_b::Wire;
 using sma_host::plant_b::WireEffects;
 
+// An effect of the vocabulary hidden in a log: its name and its parameters (the parameter
+// table's keys, sma/param_table.hpp) at their hidden values.
 struct Hidden {
-  std::string name;  // the vocabulary's effect name
-  std::vector<std::pair<std::string, double>> params;
+  std::string name;
+  std::vector<std::pair<uint8_t, double>> params;
 };
 
 struct Case {
@@ -39,37 +42,53 @@ struct Case {
 constexpr double kNoiseMm = 0.002;          // 2 um RMS (model.md, rig-like)
 constexpr double kAdcMm = 2.0 / 1024.0;     // 10-bit ADC over a 2 mm span
 
-// Strong magnitudes: ordinary for a real rig. Weak: a third of the strong departure.
-struct EffectLevel {
-  const char* name;
-  std::vector<std::pair<std::string, double>> strong;
-};
+// Strong magnitudes: ordinary for a real rig. Weak: a third of the strong departure from the
+// identity value (sma::Effects' default: gain 1, else 0).
+double strong_value(sma::param::Row r) {
+  using R = sma::param::Row;
+  switch (r) {
+    case R::delay_s: return 0.255;
+    case R::tau_s: return 0.6;
+    case R::gain: return 1.15;
+    case R::offset_mm: return 0.04;
+    case R::offset_K: return -4.5;
+    case R::beta_per_K: return 0.01;
+    case R::k_R: return -0.2;
+    case R::L_J: return 3.0;
+    case R::alpha_per_K: return 1.1e-5;
+    default: break;
+  }
+  fprintf(stderr, "plant2_make_logs: no strong value for %s\n", sma_host::key_name(sma::param::first_key(r)).c_str());
+  exit(2);
+}
 
-const std::vector<EffectLevel>& levels() {
-  static const std::vector<EffectLevel> v = {
-      {"sensor_delay", {{"delay_s", 0.255}}},
-      {"sensor_lag", {{"tau_s", 0.6}}},
-      {"sensor_calibration", {{"gain", 1.15}, {"offset_mm", 0.04}}},
-      {"ambient_offset", {{"offset_K", -4.5}}},
-      {"convection_nonlinear", {{"beta_per_K", 0.01}}},
-      {"resistance_phase", {{"k_R", -0.2}}},
-      {"latent_heat", {{"L_J", 3.0}}},
-      {"thermal_expansion", {{"alpha_per_K", 1.1e-5}}},
-  };
+// Every effect of the vocabulary in the table's order, at its strong magnitude.
+const std::vector<Hidden>& levels() {
+  static const std::vector<Hidden> v = [] {
+    std::vector<Hidden> out;
+    for (uint8_t k = 0; k < sma::param::kKeys; ++k) {
+      if (sma_host::key_kind(k) != sma::param::Kind::Effect) continue;
+      const std::string name = sma_host::effect_of_key(k);
+      if (out.empty() || out.back().name != name) out.push_back({name, {}});
+      out.back().params.push_back({k, strong_value(static_cast<sma::param::Row>(sma::param::locate(k).row))});
+    }
+    return out;
+  }();
   return v;
 }
 
-Hidden level(const char* name, bool strong) {
-  for (const EffectLevel& l : levels())
-    if (strcmp(l.name, name) == 0) {
+Hidden level(const std::string& name, bool strong) {
+  const sma_host::Model identity;
+  for (const Hidden& l : levels())
+    if (l.name == name) {
       Hidden h{name, {}};
-      for (const auto& p : l.strong) {
-        const double k = strong ? 1.0 : 1.0 / 3.0;
-        h.params.push_back({p.first, p.first == "gain" ? 1.0 + k * (p.second - 1.0) : k * p.second});
+      for (const auto& p : l.params) {
+        const double k = strong ? 1.0 : 1.0 / 3.0, one = sma_host::value(identity, p.first);
+        h.params.push_back({p.first, one + k * (p.second - one)});
       }
       return h;
     }
-  fprintf(stderr, "plant2_make_logs: unknown effect %s\n", name);
+  fprintf(stderr, "plant2_make_logs: unknown effect %s\n", name.c_str());
   exit(2);
 }
 
@@ -81,7 +100,7 @@ std::vector<Case> cases() {
     const bool adc = std::string(ex[e]) == "stairs";
     out.push_back({std::string(ex[e]) + "-clean", ex[e], {}, adc, e < 2, ++seed});
     int i = 0;
-    for (const EffectLevel& l : levels()) {
+    for (const Hidden& l : levels()) {
       for (int strong = 1; strong >= 0; --strong) {
         // quick: the strong level of each effect, on one excitation each (rotating)
         const bool quick = strong == 1 && (i % 4) == e;
@@ -107,12 +126,12 @@ std::vector<Case> cases() {
   return out;
 }
 
-double param(const Case& c, const char* effect, const char* key, double dflt) {
+// The hidden effects of a case as the library's Effects (the others at their identity value).
+sma::Effects hidden_effects(const Case& c) {
+  sma_host::Model m;
   for (const Hidden& h : c.hidden)
-    if (h.name == effect)
-      for (const auto& p : h.params)
-        if (p.first == key) return p.second;
-  return dflt;
+    for (const auto& p : h.params) sma_host::value(m, p.first) = p.second;
+  return m.fx;
 }
 
 bool g_return_point_memory = false;
@@ -120,17 +139,20 @@ bool g_return_point_memory = false;
 bool write_log(const Case& c, const std::string& path) {
   Wire wire;
   wire.return_point_memory = g_return_point_memory;
+  // Plant B's own reading of each effect (plant_b.hpp): convection as a conductance growing with
+  // the temperature rise, latent heat as a temperature drop per unit of transformation.
+  const sma::Effects fx = hidden_effects(c);
   WireEffects wf;
-  wf.ambient_offset_K = param(c, "ambient_offset", "offset_K", 0.0);
-  wf.G2_W_per_K2 = wire.conductance() * param(c, "convection_nonlinear", "beta_per_K", 0.0);
-  wf.k_R = param(c, "resistance_phase", "k_R", 0.0);
-  wf.latent_K = param(c, "latent_heat", "L_J", 0.0) / wire.heat_capacity();
-  wf.alpha_per_K = param(c, "thermal_expansion", "alpha_per_K", 0.0);
+  wf.ambient_offset_K = fx.ambient_offset_K;
+  wf.G2_W_per_K2 = wire.conductance() * fx.convection_beta_per_K;
+  wf.k_R = fx.resistance_k;
+  wf.latent_K = fx.latent_heat_J / wire.heat_capacity();
+  wf.alpha_per_K = fx.thermal_expansion_per_K;
   SensorEffects sf;
-  sf.delay_s = param(c, "sensor_delay", "delay_s", 0.0);
-  sf.lag_s = param(c, "sensor_lag", "tau_s", 0.0);
-  sf.gain = param(c, "sensor_calibration", "gain", 1.0);
-  sf.offset_mm = param(c, "sensor_calibration", "offset_mm", 0.0);
+  sf.delay_s = fx.sensor_delay_s;
+  sf.lag_s = fx.sensor_lag_s;
+  sf.gain = fx.sensor_gain;
+  sf.offset_mm = fx.sensor_offset_mm;
   sf.noise_mm = kNoiseMm;
   sf.adc_mm = c.adc ? kAdcMm : 0.0;
 
@@ -167,7 +189,8 @@ void write_manifest(const std::vector<Case>& cs, const std::string& path) {
     for (size_t j = 0; j < c.hidden.size(); ++j) {
       fprintf(f, "%s\"%s\": {", j ? ", " : "", c.hidden[j].name.c_str());
       for (size_t k = 0; k < c.hidden[j].params.size(); ++k)
-        fprintf(f, "%s\"%s\": %.9g", k ? ", " : "", c.hidden[j].params[k].first.c_str(), c.hidden[j].params[k].second);
+        fprintf(f, "%s\"%s\": %.9g", k ? ", " : "", sma_host::param_of_key(c.hidden[j].params[k].first).c_str(),
+                c.hidden[j].params[k].second);
       fprintf(f, "}");
     }
     fprintf(f, "}}%s\n", i + 1 < cs.size() ? "," : "");

@@ -59,9 +59,20 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(
 from sma import riglog  # noqa: E402
 
 
-def run_vrig(args, name, script_lines, duration, extra=(), native=False):
+def out_dir(args, name, eeprom=False):
+    """The test's output folder; eeprom: also the path of a blank EEPROM image there."""
     d = os.path.join(args.out, name)
     os.makedirs(d, exist_ok=True)
+    if not eeprom:
+        return d
+    ee = os.path.join(d, "eeprom.bin")
+    if os.path.exists(ee):
+        os.remove(ee)
+    return d, ee
+
+
+def run_vrig(args, name, script_lines, duration, extra=(), native=False):
+    d = out_dir(args, name)
     tag = "native" if native else "elf"
     script = os.path.join(d, f"script_{tag}.txt")
     with open(script, "w") as f:
@@ -370,11 +381,7 @@ def model_checks(stats, failures):
 
 def t_model(args):
     name = "model"
-    d = os.path.join(args.out, name)
-    os.makedirs(d, exist_ok=True)
-    ee = os.path.join(d, "eeprom.bin")
-    if os.path.exists(ee):
-        os.remove(ee)
+    d, ee = out_dir(args, name, eeprom=True)
     failures = []
     bad = [("pset T_AS 500", "ERR T_AS: value out of range -100..400"),
            ("pset foo 1", "ERR pset: unknown key 'foo'"),
@@ -432,11 +439,7 @@ def t_model(args):
 def t_upload(args):
     """tools/sma upload through vrig's pseudo-terminal."""
     name = "upload"
-    d = os.path.join(args.out, name)
-    os.makedirs(d, exist_ok=True)
-    ee = os.path.join(d, "eeprom.bin")
-    if os.path.exists(ee):
-        os.remove(ee)
+    d, ee = out_dir(args, name, eeprom=True)
     wire = os.path.join(d, "wire.json")
     with open(wire, "w") as f:
         f.write('{"T_AS": 55.2, "T_AF": 84.1, "h": 214.5, "g": 1.1496, "loops": [{"T_i": 64, "T_ii": 60, "j": 0.2}],'
@@ -473,8 +476,7 @@ def t_download(args):
     upload the download into a blank EEPROM, download again: both downloads and the uploaded
     file agree key by key within float32 precision (the board's decimal parser)."""
     name = "download"
-    d = os.path.join(args.out, name)
-    os.makedirs(d, exist_ok=True)
+    d = out_dir(args, name)
     wire = os.path.join(d, "wire.json")
     with open(wire, "w") as f:
         f.write('{"T_AS": 55.2, "T_AF": 84.1, "h": 214.5, "g": 1.1496, "loops": [{"T_i": 64, "T_ii": 60, "j": 0.2}],'
@@ -532,8 +534,7 @@ def t_console(args):
     """tools/sma console against the virtual rig, through its pseudo-terminal: commands get their
     replies, telemetry is recorded as a rig log, and leaving the console turns the heater off."""
     name = "console"
-    d = os.path.join(args.out, name)
-    os.makedirs(d, exist_ok=True)
+    d = out_dir(args, name)
     sma = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "sma")
     failures = []
     try:

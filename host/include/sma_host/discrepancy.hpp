@@ -58,13 +58,6 @@ struct EffectSpec {
   double& at(sma::Effects& fx, int i) const { return value(fx, key[i]); }
 };
 
-// The flat key of an effect row.
-inline uint8_t effect_key(sma::param::Row r) {
-  uint8_t k = 0;
-  for (uint8_t i = 0; i < static_cast<uint8_t>(r); ++i) k = static_cast<uint8_t>(k + sma::param::width(sma::param::row(i).kind));
-  return k;
-}
-
 inline const std::vector<EffectSpec>& vocabulary() {
   using R = sma::param::Row;
   static const std::vector<EffectSpec> v = [] {
@@ -97,7 +90,7 @@ inline const std::vector<EffectSpec>& vocabulary() {
     for (EffectSpec& e : s) {
       e.n = e.row[1] == R::none ? 1 : 2;
       for (int i = 0; i < e.n; ++i) {
-        e.key[i] = effect_key(e.row[i]);
+        e.key[i] = sma::param::first_key(e.row[i]);
         e.param[i] = param_of_key(e.key[i]);
       }
       e.name = effect_of_key(e.key[0]);
@@ -298,28 +291,23 @@ inline FitOutcome fit_effects(const sma::Params& p, std::vector<FittedEffect> ef
   pb.only = split.train;
   pb.tie_bands = false;
   pb.penalty = 1.0;  // mm: a non-physical trial
-  const std::vector<ParamSpec> named = fittable_params(pb.start);
-  auto spec_of = [&named](const std::string& name, double scale, double lo, double hi) {
-    for (const ParamSpec& s : named)
-      if (s.name == name) {
-        ParamSpec out = s;
-        out.scale = scale;
-        out.log = false;
-        out.lo = lo;
-        out.hi = hi;
-        return out;
-      }
-    throw Error("discrepancy: no fittable parameter named '" + name + "'");
+  auto spec_of = [&pb](uint8_t key, double scale, double lo, double hi) {
+    ParamSpec out = param_spec(key, pb.start);
+    out.scale = scale;
+    out.log = false;
+    out.lo = lo;
+    out.hi = hi;
+    return out;
   };
   for (const FittedEffect& e : effects)
     for (int i = 0; i < e.spec->n; ++i)
       if (!hold_effects && !frozen(*e.spec, i, base)) {
-        pb.specs.push_back(spec_of(e.spec->param[i], e.spec->scale[i], e.spec->lo[i], e.spec->hi[i]));
+        pb.specs.push_back(spec_of(e.spec->key[i], e.spec->scale[i], e.spec->lo[i], e.spec->hi[i]));
         pb.x0.push_back(sma::clamp(e.value[i], e.spec->lo[i], e.spec->hi[i]));
       }
   const size_t n_effect_params = pb.specs.size();
   for (const BaseSpec* b : base) {
-    pb.specs.push_back(spec_of(b->name, b->scale, -INFINITY, INFINITY));
+    pb.specs.push_back(spec_of(b->key, b->scale, -INFINITY, INFINITY));
     pb.x0.push_back(b->get(p));
   }
   const Eigen::Index n = static_cast<Eigen::Index>(pb.specs.size());
@@ -452,9 +440,10 @@ inline std::vector<FittedEffect> present_effects(const sma::Effects& fx) {
 // are moved (the others stay part of the model). Other effects: the base unchanged.
 inline sma::Params equivalent_base(const sma::Params& p, const EffectSpec& spec, const double* value,
                                    const std::vector<const BaseSpec*>& base) {
-  const std::string name = spec.name;
-  const double beta = name == "convection_nonlinear" ? value[0] : 0.0;
-  const double shift = name == "ambient_offset" ? value[0] : 0.0;
+  using R = sma::param::Row;
+  using sma::param::key_of;
+  const double beta = spec.row[0] == R::beta_per_K ? value[0] : 0.0;
+  const double shift = spec.row[0] == R::offset_K ? value[0] : 0.0;
   if (beta <= 0.0 && shift == 0.0) return p;
   const double dT_mid = 0.5 * (p.T_AS + p.T_AF) - p.T_amb;
   auto map_T = [&](double T) {
@@ -464,11 +453,12 @@ inline sma::Params equivalent_base(const sma::Params& p, const EffectSpec& spec,
   };
   sma::Params q = p;
   for (const BaseSpec* b : base) {
-    const std::string n = b->name;
-    if (n == "h" && beta > 0.0) b->ref(q) = p.h / (1.0 + beta * dT_mid);
-    if (n[0] == 'T' && n != "T_amb") b->ref(q) = map_T(b->get(p));
-    if (n == "e") b->ref(q) = map_T(p.e);  // eq 10: T_MSi = q eps_h + e
-    if (n == "q") b->ref(q) = map_T(p.q + p.e) - map_T(p.e);
+    // The wire's temperatures (a degC key but the ambient's) map; e (eq 10: T_MSi = q eps_h + e)
+    // is one, q the difference of two.
+    const bool wire_T = key_unit(b->key) == "degC" && b->key != key_of<R::T_amb>();
+    if (b->key == key_of<R::h>() && beta > 0.0) b->ref(q) = p.h / (1.0 + beta * dT_mid);
+    else if (b->key == key_of<R::q>()) b->ref(q) = map_T(p.q + p.e) - map_T(p.e);
+    else if (wire_T) b->ref(q) = map_T(b->get(p));
   }
   return q.check() == nullptr ? q : p;
 }
@@ -796,10 +786,6 @@ inline Diagnosis diagnose(const sma::Params& p, const RigLog& log, const Options
 
 // ---- the re-heat reading -------------------------------------------------------------------
 
-inline const char* reading_name(sma::Reheat r) {
-  return r == sma::Reheat::new_loop ? "new_loop" : "return_point";
-}
-
 // The reading of a re-heat that stops short of transformation is a choice of the model's
 // structure (hysteresis.hpp), not an effect: it is decided first, with the effects fitted under
 // each reading. When the two readings predict the log alike (no such re-heat, or one that
@@ -813,7 +799,7 @@ Diagnosis diagnose_reading(const sma::Params& p, const RigLog& log, const Option
   const int given = p.reheat == sma::Reheat::new_loop ? 1 : 0;
   if (!o.choose_reading) {
     Diagnosis d = diagnose(p, log, o, progress, start);
-    d.reading_why = std::string("given (") + reading_name(p.reheat) + "): not compared";
+    d.reading_why = std::string("given (") + reheat_name(p.reheat) + "): not compared";
     return d;
   }
   sma::Params alt = p;
@@ -828,7 +814,7 @@ Diagnosis diagnose_reading(const sma::Params& p, const RigLog& log, const Option
     Diagnosis d = diagnose(p, log, o, progress, start);
     std::snprintf(buf, sizeof buf,
                   "kept %s: the two readings of a re-heat predict this log alike (%.2g mm RMS apart, "
-                  "noise %.2g mm)", reading_name(p.reheat), diff, noise);
+                  "noise %.2g mm)", reheat_name(p.reheat), diff, noise);
     d.reading_why = buf;
     return d;
   }
@@ -843,9 +829,9 @@ Diagnosis diagnose_reading(const sma::Params& p, const RigLog& log, const Option
   std::snprintf(buf, sizeof buf,
                 "%s %s: final held-out gap %.4g mm with %s, %.4g mm with %s (noise %.2g mm; the readings "
                 "differ by %.2g mm RMS on this log)",
-                switch_reading ? "chose" : "kept", reading_name(d.params.reheat), d.rms_test_final,
-                reading_name(d.params.reheat), (switch_reading ? dg : da).rms_test_final,
-                reading_name((switch_reading ? dg : da).params.reheat), noise, diff);
+                switch_reading ? "chose" : "kept", reheat_name(d.params.reheat), d.rms_test_final,
+                reheat_name(d.params.reheat), (switch_reading ? dg : da).rms_test_final,
+                reheat_name((switch_reading ? dg : da).params.reheat), noise, diff);
   d.reading_why = buf;
   return d;
 }

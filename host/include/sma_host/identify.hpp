@@ -306,78 +306,99 @@ inline Uncertainty uncertainty(const Eigen::MatrixXd& J, const Eigen::VectorXd& 
 // sensor zero per run, the minor-loop band tied to the fitted bands, a penalty for a
 // non-physical set, and the forward-difference Jacobian Eigen's Levenberg-Marquardt wants.
 
-// Where a fitted parameter lives in a Model (index: the loop of j / T_ii).
-namespace ref {
-inline double* h(Model& m, int) { return &m.p.h; }
-inline double* TAS(Model& m, int) { return &m.p.T_AS; }
-inline double* TAF(Model& m, int) { return &m.p.T_AF; }
-inline double* TMF(Model& m, int) { return &m.p.T_MF; }
-inline double* q(Model& m, int) { return &m.p.q; }
-inline double* e(Model& m, int) { return &m.p.e; }
-inline double* TMSs(Model& m, int) { return &m.p.T_MSs; }
-inline double* TMSf(Model& m, int) { return &m.p.T_MSf; }
-inline double* g(Model& m, int) { return &m.p.g; }
-inline double* Ts(Model& m, int) { return &m.p.T_s; }
-inline double* Tf(Model& m, int) { return &m.p.T_f; }
-inline double* R(Model& m, int) { return &m.p.R; }
-inline double* Tamb(Model& m, int) { return &m.p.T_amb; }
-inline double* j(Model& m, int k) { return &m.p.loops[k].j; }
-inline double* Tii(Model& m, int k) { return &m.p.loops[k].T_ii; }
-// The effects of the vocabulary (effects.hpp, interfaces.md names in fittable_params).
-inline double* off(Model& m, int) { return &m.fx.sensor_offset_mm; }
-inline double* gain(Model& m, int) { return &m.fx.sensor_gain; }
-inline double* alpha(Model& m, int) { return &m.fx.thermal_expansion_per_K; }
-inline double* LJ(Model& m, int) { return &m.fx.latent_heat_J; }
-inline double* beta(Model& m, int) { return &m.fx.convection_beta_per_K; }
-inline double* delay(Model& m, int) { return &m.fx.sensor_delay_s; }
-inline double* lag(Model& m, int) { return &m.fx.sensor_lag_s; }
-inline double* offK(Model& m, int) { return &m.fx.ambient_offset_K; }
-inline double* kR(Model& m, int) { return &m.fx.resistance_k; }
-}  // namespace ref
-
+// A fitted parameter: a flat key of the parameter table (sma/param_table.hpp), which gives its
+// name and its place in a Model, or the sensor zero of one run of several.
 struct ParamSpec {
-  std::string name;
-  double scale;   // normalisation: one unit of the optimiser's x (and the Jacobian step / 100)
-  bool log;       // positive quantity fitted as log (h, g, R, gain)
-  double* (*ref)(Model&, int);  // nullptr: the sensor zero of run `index` (> 0) of several logs
-  int index;      // loop index for j / T_ii
-  double lo = -INFINITY, hi = INFINITY;  // physical bounds (the value is clamped to them)
+  std::string name;  // fit_name(key) (h, T_AS, delay_s, j1, T_ii2), or offset_mm[<log>]
+  double scale;      // normalisation: one unit of the optimiser's x (and the Jacobian step / 100)
+  bool log;          // a quantity the table bounds away from zero, fitted as log (h, g, R, gain)
+  uint8_t key;       // flat key; kNoKey: the sensor zero of run `run` (> 0) of several logs
+  size_t run = 0;
+  double lo = -INFINITY, hi = INFINITY;  // search clamp (not the table's range: fit_step)
+
+  double* ref(Model& m) const { return key == sma::param::kNoKey ? nullptr : &value(m, key); }
+  bool is(sma::param::Row r) const {
+    return key != sma::param::kNoKey && sma::param::locate(key).row == static_cast<uint8_t>(r);
+  }
 };
 
-// Every parameter a fit can name: the paper's (Table II), the rig's (T_amb, R) and the effects'.
+// How the optimiser moves a row the engine fits: its unit step (scale 0: a row it never fits:
+// rho, c, d0, L0 only enter through G and C, T_MS follows T_MF, m is Table II's, the loops' T_i
+// sit at the log's reversals) and its search clamp.
+// The table's range is not a clamp: a set outside it fails Params/Effects::check() and costs the
+// penalty residual, so LM rejects the step and shortens it. A clamp at the range would turn the
+// outside into a plateau: a parameter LM overshoots onto its bound (a loop's j at 0) keeps a
+// zero Jacobian column there and never comes back, and the fit ends elsewhere. The only clamps
+// are the sensor effects' and k_R's search ranges (the discrepancy vocabulary's, inside the table's).
+struct FitStep {
+  double scale;
+  double lo = -INFINITY, hi = INFINITY;
+};
+inline FitStep fit_step(sma::param::Row r, const Model& m) {
+  using R = sma::param::Row;
+  switch (r) {
+    case R::T_AS: case R::T_AF: case R::T_MF: case R::T_s: case R::T_f: case R::T_MSs: case R::T_MSf:
+    case R::q: case R::e: case R::T_amb: case R::loop_T_ii:
+      return {1.0};  // K
+    case R::h: return {0.1};  // of log h
+    case R::g: case R::R: case R::gain: return {0.05};  // of the log
+    case R::loop_j: return {0.02};
+    case R::offset_mm: return {0.01 * m.p.g};  // 1 % of the stroke
+    case R::offset_K: return {2.0};
+    case R::delay_s: return {0.1, 0.0, 2.0};
+    case R::tau_s: return {0.2, 0.0, 5.0};
+    case R::beta_per_K: return {1e-3};
+    case R::k_R: return {0.1, -0.5, 1.0};
+    case R::L_J: return {0.5};
+    case R::alpha_per_K: return {1e-6};
+    default: return {0.0};
+  }
+}
+
+// The spec of flat key k: name and place from the table, log if the table bounds it away from
+// zero, step and clamp from fit_step; scale 0 for a key the engine does not fit.
+inline ParamSpec param_spec(uint8_t k, const Model& m) {
+  const sma::param::Place at = sma::param::locate(k);
+  const FitStep st = fit_step(static_cast<sma::param::Row>(at.row), m);
+  ParamSpec s{fit_name(k), st.scale, sma::param::row(at.row).lo > 0, k};
+  s.lo = st.lo;
+  s.hi = st.hi;
+  return s;
+}
+
+// Every parameter a fit can name: the paper's (Table II), the rig's (T_amb, R) and the effects',
+// in the table's order, then j and T_ii of each identified loop.
 inline std::vector<ParamSpec> fittable_params(const Model& m) {
-  const double g = m.p.g;
-  std::vector<ParamSpec> s = {
-      {"h", 0.1, true, ref::h, 0},          {"T_AS", 1.0, false, ref::TAS, 0},
-      {"T_AF", 1.0, false, ref::TAF, 0},    {"T_MF", 1.0, false, ref::TMF, 0},
-      {"q", 1.0, false, ref::q, 0},         {"e", 1.0, false, ref::e, 0},
-      {"T_MSs", 1.0, false, ref::TMSs, 0},  {"T_MSf", 1.0, false, ref::TMSf, 0},
-      {"g", 0.05, true, ref::g, 0},         {"offset_mm", 0.01 * g, false, ref::off, 0},
-      {"T_amb", 1.0, false, ref::Tamb, 0},  {"gain", 0.05, true, ref::gain, 0},
-      {"R", 0.05, true, ref::R, 0},         {"alpha_per_K", 1e-6, false, ref::alpha, 0},
-      {"L_J", 0.5, false, ref::LJ, 0},      {"beta_per_K", 1e-3, false, ref::beta, 0},
-      {"T_s", 1.0, false, ref::Ts, 0},      {"T_f", 1.0, false, ref::Tf, 0},
-      {"delay_s", 0.1, false, ref::delay, 0, 0.0, 2.0}, {"tau_s", 0.2, false, ref::lag, 0, 0.0, 5.0},
-      {"offset_K", 2.0, false, ref::offK, 0},           {"k_R", 0.1, false, ref::kR, 0, -0.5, 1.0}};
-  for (int k = 0; k < m.p.n_loops; ++k) {
-    s.push_back({"j" + std::to_string(k + 1), 0.02, false, ref::j, k});
-    s.push_back({"T_ii" + std::to_string(k + 1), 1.0, false, ref::Tii, k});
+  using sma::param::Kind;
+  std::vector<ParamSpec> s;
+  for (uint8_t k = 0; k < sma::param::kKeys; ++k) {
+    const ParamSpec p = param_spec(k, m);
+    if (p.scale > 0 && key_kind(k) != Kind::Knot) s.push_back(p);
+  }
+  for (uint8_t i = 0; i < m.p.n_loops; ++i) {
+    s.push_back(param_spec(sma::param::key_of<sma::param::Row::loop_j>(i), m));
+    s.push_back(param_spec(sma::param::key_of<sma::param::Row::loop_T_ii>(i), m));
   }
   return s;
 }
 
 // What `tools/sma fit` fits unless told otherwise: the paper's identified set and the sensor zero.
 inline std::vector<std::string> default_fit_names(const Model& m) {
-  std::vector<std::string> n = {"h", "T_AS", "T_AF", "T_MF", "q", "e", "T_MSs", "T_MSf", "g", "offset_mm"};
-  for (int k = 0; k < m.p.n_loops; ++k) {
-    n.push_back("j" + std::to_string(k + 1));
-    n.push_back("T_ii" + std::to_string(k + 1));
+  using R = sma::param::Row;
+  using sma::param::key_of;
+  std::vector<std::string> n;
+  for (uint8_t k : {key_of<R::h>(), key_of<R::T_AS>(), key_of<R::T_AF>(), key_of<R::T_MF>(), key_of<R::q>(),
+                    key_of<R::e>(), key_of<R::T_MSs>(), key_of<R::T_MSf>(), key_of<R::g>(), key_of<R::offset_mm>()})
+    n.push_back(fit_name(k));
+  for (uint8_t i = 0; i < m.p.n_loops; ++i) {
+    n.push_back(fit_name(key_of<R::loop_j>(i)));
+    n.push_back(fit_name(key_of<R::loop_T_ii>(i)));
   }
   return n;
 }
 
 // Over one or several logs of one wire: the shared parameters, and a sensor offset per run after
-// the first (a potentiometer's zero moves between runs; specs with ref == nullptr, index = run).
+// the first (a potentiometer's zero moves between runs; specs with key kNoKey and their run).
 // The residual is model - measured at every stride-th row of each log, or at the rows `only`
 // (one log: e.g. the training blocks of a held-out split).
 struct FitResidual {
@@ -404,16 +425,16 @@ struct FitResidual {
   Model model_at(const Eigen::VectorXd& x) const {
     Model m = start;
     for (size_t i = 0; i < specs.size(); ++i)
-      if (specs[i].ref) *specs[i].ref(m, specs[i].index) = value(x, i);
+      if (double* v = specs[i].ref(m)) *v = value(x, i);
     if (tie_bands) tie_to_bands(m);
     // T_MS is not used by the hysteresis (the major cooling branch starts at T_MSi, eq 10), but
     // Params::check wants T_MS > T_MF: it follows T_MF instead of bounding it.
     if (!(m.p.T_MS > m.p.T_MF)) m.p.T_MS = m.p.T_MF + 1.0;
     return m;
   }
-  bool fitted(double* (*r)(Model&, int)) const {
+  bool fitted(sma::param::Row r) const {
     for (const ParamSpec& s : specs)
-      if (s.ref == r) return true;
+      if (s.is(r)) return true;
     return false;
   }
   // The minor-loop band moves with the wire: what is not fitted itself follows the band it lies
@@ -427,19 +448,19 @@ struct FitResidual {
     const double wh0 = s.T_AF - s.T_AS, wh = m.p.T_AF - m.p.T_AS;
     if (wh0 > 0 && wh > 0 && (m.p.T_AS != s.T_AS || m.p.T_AF != s.T_AF)) {
       auto heat = [&](double x) { return m.p.T_AS + (x - s.T_AS) * wh / wh0; };
-      if (!fitted(ref::Ts)) m.p.T_s = heat(s.T_s);
-      if (!fitted(ref::Tf)) m.p.T_f = heat(s.T_f);
+      if (!fitted(sma::param::Row::T_s)) m.p.T_s = heat(s.T_s);
+      if (!fitted(sma::param::Row::T_f)) m.p.T_f = heat(s.T_f);
       for (int k = 0; k < m.p.n_loops; ++k) {
         m.p.loops[k].T_i = heat(s.loops[k].T_i);
-        if (!fitted(ref::Tii)) m.p.loops[k].T_ii = heat(s.loops[k].T_ii);
+        if (!fitted(sma::param::Row::loop_T_ii)) m.p.loops[k].T_ii = heat(s.loops[k].T_ii);
       }
     }
     const double c0 = s.q + s.e, c = m.p.q + m.p.e;
     const double wc0 = c0 - s.T_MF, wc = c - m.p.T_MF;
     if (wc0 > 0 && wc > 0 && (c != c0 || m.p.T_MF != s.T_MF)) {
       auto cool = [&](double x) { return m.p.T_MF + (x - s.T_MF) * wc / wc0; };
-      if (!fitted(ref::TMSs)) m.p.T_MSs = cool(s.T_MSs);
-      if (!fitted(ref::TMSf)) m.p.T_MSf = cool(s.T_MSf);
+      if (!fitted(sma::param::Row::T_MSs)) m.p.T_MSs = cool(s.T_MSs);
+      if (!fitted(sma::param::Row::T_MSf)) m.p.T_MSf = cool(s.T_MSf);
     }
   }
   // The model of run r: run 0's, with run r's own sensor offset.
@@ -448,7 +469,7 @@ struct FitResidual {
     if (r == 0) return m;
     m.fx.sensor_offset_mm = run_offset[r - 1];
     for (size_t i = 0; i < specs.size(); ++i)
-      if (!specs[i].ref && static_cast<size_t>(specs[i].index) == r) m.fx.sensor_offset_mm = value(x, i);
+      if (specs[i].key == sma::param::kNoKey && specs[i].run == r) m.fx.sensor_offset_mm = value(x, i);
     return m;
   }
   // d(physical)/d(x) at x, for the covariance in physical units.
@@ -559,11 +580,23 @@ inline void check_compatible(const std::vector<const RigLog*>& logs) {
   }
 }
 
+// The parameters only a log that cools the wire back through its transformation excites: the
+// cooling band and its start (T_MF, q, e of eq 10, T_MSs, T_MSf of eq 9) and the minor loops
+// (j, T_ii: the loops open at a reversal from heating to cooling, eq 7). kNoKey: false.
+inline bool cooling_param(uint8_t key) {
+  using R = sma::param::Row;
+  if (key == sma::param::kNoKey) return false;
+  switch (static_cast<R>(sma::param::locate(key).row)) {
+    case R::T_MF: case R::q: case R::e: case R::T_MSs: case R::T_MSf: case R::loop_j: case R::loop_T_ii: return true;
+    default: return false;
+  }
+}
+
 // True if the log shows the wire cooling back: the measured position (averaged over 0.5 s) falls
 // from its running peak by at least `min_drop` of the log's stroke (1st..99th percentile), i.e.
 // part of the reverse transformation was recorded. From the data, not from a start model (a bad
-// start model may never cool on the log's voltage). Without it the cooling parameters (T_MF, q,
-// e, T_MSs, T_MSf, loops) have nothing to be fitted on.
+// start model may never cool on the log's voltage). Without it the cooling parameters
+// (cooling_param) have nothing to be fitted on.
 inline bool cools_in_log(const RigLog& log, double min_drop = 0.2) {
   const size_t n = log.size();
   if (n < 3) return false;

@@ -144,3 +144,39 @@ TEST(ParamsJson, ReheatKey) {
     }
   }
 }
+
+// The host's names and messages of the parameter table come from one string writer
+// (sma_host::StringSink): the board's spelling of a key, and check()'s message as the board
+// prints it after "ERR " (docs/identification.md, "One parameter table").
+TEST(ParamsJson, KeyNamesAndViolationMessagesAreTheTables) {
+  using sma::param::Row;
+  using sma::param::Rule;
+  using sma::param::key_of;
+  EXPECT_EQ(sma_host::key_name(key_of<Row::m>(3)), "m3");
+  EXPECT_EQ(sma_host::key_name(key_of<Row::loop_T_ii>(1)), "loop1.T_ii");
+  EXPECT_EQ(sma_host::key_name(key_of<Row::delay_s>()), "sensor_delay.delay_s");
+  EXPECT_EQ(sma_host::key_unit(key_of<Row::h>()), "W/(m^2*K)");
+  EXPECT_EQ(sma_host::key_unit(key_of<Row::loop_T_ii>(2)), "degC");
+  EXPECT_EQ(sma_host::key_unit(key_of<Row::m>(4)), "1");
+  EXPECT_EQ(sma_tools::violation_text({key_of<Row::T_AF>(), Rule::above}), "T_AF: must be > T_AS");
+  EXPECT_EQ(sma_tools::violation_text({key_of<Row::gain>(), Rule::range}), "sensor_calibration.gain: must be in 0.2..5");
+  sma::Params p;
+  p.T_AF = p.T_AS - 1.0;  // eq 2: austenite finishes above its start
+  EXPECT_EQ(sma_tools::violation_text(p.check()), "T_AF: must be > T_AS");
+}
+
+// The re-heat reading has one spelling in params JSON, reports and the tools' --reheat.
+TEST(ParamsJson, ReheatReadingOneSpellingEverywhere) {
+  for (sma::Reheat r : {sma::Reheat::return_point, sma::Reheat::new_loop}) {
+    EXPECT_EQ(sma_tools::reheat_option(sma_host::reheat_name(r)), r);
+    Model m;
+    m.p.reheat = r;
+    EXPECT_EQ(model_from_text(model_to_json(m), "p.json").p.reheat, r);
+  }
+  try {
+    sma_tools::reheat_option("rpm");
+    ADD_FAILURE() << "accepted --reheat rpm";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--reheat must be return_point or new_loop, not 'rpm'"), std::string::npos);
+  }
+}

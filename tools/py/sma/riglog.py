@@ -3,12 +3,19 @@
 Format: lines starting with '#' are comments, then a header line of column names, then one row
 of numbers per sample. The C++ reader (tools/host/include/sma_tools/rig_log.hpp, fuzzed) is the
 one the identification uses; this one serves plots, the virtual-rig scripts and the dashboard,
-and is as strict: a bad row (wrong field count, text in a number, NaN, time going back) is an
-error naming the file and line, or, with skip_bad=True, dropped and listed in `dropped`.
+and reads a file as it does (interfaces.md: "the tool says how many it dropped or refuses the
+file"): a bad row (wrong field count, text in a number, NaN, time going back) is dropped, listed
+in `dropped` and warned about on stderr naming the file and line; the file is refused when more
+than MAX_BAD_FRACTION of its rows (or MAX_BAD_ROWS) are bad (LogReadOptions of rig_log.hpp).
+strict=True refuses the file at its first bad row (the helpers' own CSVs).
 """
 import math
+import sys
 
 REQUIRED = ("t_s", "v_V", "d_mm")
+MAX_BAD_FRACTION = 0.01  # as the C++ reader's LogReadOptions
+MAX_BAD_ROWS = 1000
+KEEP_PROBLEMS = 10       # problems listed in a message
 
 
 class RigLogError(ValueError):
@@ -16,13 +23,15 @@ class RigLogError(ValueError):
 
 
 class RigLog:
-    """columns: name -> numpy array; comments: text of the '#' lines; dropped: [(line, why)]."""
+    """columns: name -> numpy array; comments: text of the '#' lines; dropped: [(line, why)];
+    rows_read: data rows seen (kept and dropped)."""
 
-    def __init__(self, path, columns, comments, dropped):
+    def __init__(self, path, columns, comments, dropped, rows_read=0):
         self.path = path
         self.columns = columns
         self.comments = comments
         self.dropped = dropped
+        self.rows_read = rows_read
 
     def __getitem__(self, name):
         try:
@@ -59,15 +68,27 @@ def parse_row(text, ncols):
     return tuple(vals)
 
 
-def read(path, required=REQUIRED, skip_bad=False, empty_ok=False):
+def describe(path, dropped, keep=KEEP_PROBLEMS):
+    """The dropped rows as the C++ reader lists them: one 'path:line: why' a line."""
+    out = "".join("\n  %s:%d: %s" % (path, line, why) for line, why in dropped[:keep])
+    if len(dropped) > keep:
+        out += "\n  ... and %d more" % (len(dropped) - keep)
+    return out
+
+
+def read(path, required=REQUIRED, strict=False, empty_ok=False, max_bad_fraction=MAX_BAD_FRACTION,
+         max_bad_rows=MAX_BAD_ROWS):
     """Reads a CSV; `required` columns must be present (pass () for the helpers' CSVs).
+    Bad rows are dropped with a warning, the file refused above max_bad_fraction / max_bad_rows;
+    strict: refused at the first bad row.
     empty_ok: a file without a header (a run that never sent telemetry) is a log of no rows."""
     import numpy as np
 
     comments, header, rows, dropped = [], None, [], []
+    rows_read = 0
     last_t = None
     t_index = None
-    with open(path) as f:
+    with open(path, encoding="utf-8-sig") as f:  # a spreadsheet's byte-order mark is not data
         for lineno, line in enumerate(f, 1):
             s = line.strip()
             if not s:
@@ -83,6 +104,7 @@ def read(path, required=REQUIRED, skip_bad=False, empty_ok=False):
                                       % (path, lineno, ", ".join(missing), s))
                 t_index = header.index("t_s") if "t_s" in header else None
                 continue
+            rows_read += 1
             try:
                 vals = parse_row(s, len(header))
                 if t_index is not None:
@@ -90,7 +112,7 @@ def read(path, required=REQUIRED, skip_bad=False, empty_ok=False):
                         raise ValueError("time %g after %g: must increase" % (vals[t_index], last_t))
                     last_t = vals[t_index]
             except ValueError as e:
-                if not skip_bad:
+                if strict:
                     raise RigLogError("%s:%d: %s" % (path, lineno, e))
                 dropped.append((lineno, str(e)))
                 continue
@@ -99,11 +121,17 @@ def read(path, required=REQUIRED, skip_bad=False, empty_ok=False):
         if empty_ok:
             return RigLog(path, {}, comments, dropped)
         raise RigLogError("%s: no header line (expected e.g. t_s,v_V,d_mm)" % path)
+    if dropped and (len(dropped) > max_bad_fraction * rows_read or len(dropped) > max_bad_rows):
+        raise RigLogError("%s: refused: %d bad rows of %d (more than %d %%):%s"
+                          % (path, len(dropped), rows_read, round(100 * max_bad_fraction), describe(path, dropped)))
+    if dropped:
+        sys.stderr.write("%s: dropped %d bad rows of %d:%s\n"
+                         % (path, len(dropped), rows_read, describe(path, dropped, 5)))
     a = np.array(rows, dtype=float).reshape(-1, len(header))
-    return RigLog(path, {name: a[:, i] for i, name in enumerate(header)}, comments, dropped)
+    return RigLog(path, {name: a[:, i] for i, name in enumerate(header)}, comments, dropped, rows_read)
 
 
 def load(path):
     """(columns, comments) of a helper's CSV (no required columns, strict)."""
-    log = read(path, required=())
+    log = read(path, required=(), strict=True)
     return log.columns, log.comments

@@ -39,6 +39,7 @@ struct EffectKey {
 using sma_host::key_kind;
 using sma_host::key_name;
 using sma_host::value;
+using sma_host::violation_text;
 inline const std::vector<ParamKey>& param_keys() {
   static const std::vector<ParamKey> keys = [] {
     std::vector<ParamKey> v;
@@ -72,15 +73,6 @@ inline std::string effect_names_list() {
   return out;
 }
 
-// What check() found, as its message ("T_AF: must be > T_AS").
-inline std::string violation_text(sma::param::Violation v) {
-  struct Out {
-    std::string s;
-    void put(char c) { s.push_back(c); }
-  } o;
-  sma::param::put_violation(o, v);
-  return o.s;
-}
 
 // Sets effect parameter `effect`.`param`; throws naming what is unknown.
 inline void set_effect(sma::Effects& fx, const std::string& effect, const std::string& param,
@@ -129,14 +121,17 @@ inline double need_number(const json::Value& v, const std::string& where, const 
 }
 
 // The re-heat reading of the loop memory (sma::Reheat, hysteresis.hpp), key "reheat".
-inline const char* reheat_name(sma::Reheat r) {
-  return r == sma::Reheat::new_loop ? "new_loop" : "return_point";
-}
+using sma_host::reheat_name;
 inline sma::Reheat reheat_from_name(const json::Value& v, const std::string& at) {
-  const bool text = v.type == json::Value::Type::String;
-  if (text && v.str == "return_point") return sma::Reheat::return_point;
-  if (text && v.str == "new_loop") return sma::Reheat::new_loop;
+  sma::Reheat r;
+  if (v.type == json::Value::Type::String && sma_host::reheat_from_text(v.str, r)) return r;
   throw Error(at + ": key 'reheat' must be \"return_point\" or \"new_loop\"");
+}
+// The tools' --reheat VALUE.
+inline sma::Reheat reheat_option(const std::string& s) {
+  sma::Reheat r;
+  if (!sma_host::reheat_from_text(s, r)) throw Error("--reheat must be return_point or new_loop, not '" + s + "'");
+  return r;
 }
 
 // Fills `m` from a parsed object (keys not given keep their value in m).
