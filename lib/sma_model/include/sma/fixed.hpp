@@ -659,15 +659,7 @@ inline Fixed from_double<Fixed>(double x) {
 #endif
 }
 
-// n / d in Q16.16, rounded half up, saturated (the mean of a tick's ADC samples, scalar.hpp):
-// restoring division of n 2^17 by an 8-bit d. The top bits of n start the remainder (n / 2^15 < d,
-// else the quotient overflows), which then stays below d: 32 steps of one shifted-in bit each.
-// On the AVR the steps are ~12 cycles of assembly (the remainder in one register, its ninth bit in
-// the carry), ~400 in all; a float division and the conversions around it cost ~800, the same
-// loop in C ~1200.
 namespace fixed_detail {
-// floor(n 2^17 / d) for n / 2^15 < d: the loop in C. Portable version; on the AVR the reference
-// the benchmark checks the assembly against.
 // n / 2^15, by 16-bit halves (a 32-bit shift by 15 is a 15-step loop on the AVR): the remainder
 // the division starts from.
 inline uint16_t ratio_top(uint32_t n) {
@@ -676,6 +668,8 @@ inline uint16_t ratio_top(uint32_t n) {
 // n's low 15 bits at the top of a word (the dividend bits still to shift in), by a 16-bit shift
 // and a byte move.
 inline uint32_t ratio_rest(uint32_t n) { return static_cast<uint32_t>(static_cast<uint16_t>(lo16(n) << 1)) << 16; }
+// floor(n 2^17 / d) for n / 2^15 < d: the loop in C. Portable version; on the AVR the reference
+// bench/avr_math checks the assembly against (CTest avr_math_bench).
 inline uint32_t ratio_q17_portable(uint32_t n, uint8_t d) {
   uint8_t r = static_cast<uint8_t>(ratio_top(n));
   uint32_t q = ratio_rest(n);
