@@ -1,6 +1,8 @@
 // The preview controller (preview.hpp) in closed loop on the simulated plant: the targets of
 // the issue "use the known future", on whole-run metrics (metrics.hpp, true position).
 #include <gtest/gtest.h>
+#include <math.h>
+#include <string.h>
 #include "sma/console.hpp"
 #include "sma/fixed.hpp"
 #include "sma_host/metrics.hpp"
@@ -211,3 +213,30 @@ TEST(Preview, NanGivesZeroVolts) {
 }
 
 }  // namespace
+
+// The preview's settings: the defaults are valid; a setting out of its range or NaN is refused
+// with a message naming it, and a controller built from such a set stays off (0 V).
+TEST(PreviewConfig, OutOfRangeSettingsAreRefusedByName) {
+  EXPECT_EQ(sma::PreviewConfig().check(), nullptr);
+  struct Bad {
+    double sma::PreviewConfig::*field;
+    double value;
+    const char* name;
+  };
+  const Bad bad[] = {{&sma::PreviewConfig::lookahead_s, -1.0, "lookahead_s"},
+                     {&sma::PreviewConfig::lookahead_s, 100.0, "lookahead_s"},
+                     {&sma::PreviewConfig::lookahead_s, NAN, "lookahead_s"},
+                     {&sma::PreviewConfig::rise_margin_mm, -0.001, "rise_margin_mm"},
+                     {&sma::PreviewConfig::rise_margin_mm, 0.5, "rise_margin_mm"},
+                     {&sma::PreviewConfig::cool_weight, 101.0, "cool_weight"}};
+  for (const Bad& b : bad) {
+    sma::PreviewConfig c;
+    c.*b.field = b.value;
+    const char* why = c.check();
+    ASSERT_NE(why, nullptr) << b.name << " = " << b.value;
+    EXPECT_NE(strstr(why, b.name), nullptr) << why;
+    const sma::Params p;
+    sma::PreviewController<double> ctl(p, sma::Effects(), c);
+    EXPECT_EQ(ctl.step(0.5, [](double) { return 0.5; }, 0.2), 0.0) << b.name;
+  }
+}
