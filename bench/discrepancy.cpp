@@ -9,6 +9,7 @@
 #include <map>
 #include <string>
 #include "sma_host/hidden_effects.hpp"
+#include "sma_host/progress.hpp"
 
 using namespace sma_host;
 
@@ -48,9 +49,10 @@ int main(int argc, char** argv) {
               "|---|---|---|---|---|---|---|---|\n");
   int right = 0, n_effect = 0;
   double min_shrink = 1.0;
+  sma_host::CaseLine progress;
   for (size_t i = 0; i < cases.size(); ++i) {
     const HiddenCase& c = cases[i];
-    std::fprintf(stderr, "\r[%2zu/%zu] %-45s", i + 1, cases.size(), c.label.c_str());
+    progress("[%2zu/%zu] %s", i + 1, cases.size(), c.label.c_str());
     const auto t0 = std::chrono::steady_clock::now();
     const Diagnosis d = diagnose_reading(p, hidden_effect_log(c, p, seeds[i]), Options(), [](const char*) {});
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -83,7 +85,7 @@ int main(int argc, char** argv) {
                  c.label.c_str(), hidden.c_str(), named.c_str(), (c.hidden.empty() ? d.effects.empty() : all) ? "true" : "false",
                  reading, d.rms_nominal, d.rms_final, shrink, secs, i + 1 < cases.size() ? "," : "");
   }
-  std::fprintf(stderr, "\n");
+  progress.finish();
   std::printf("\nConfusion (hidden -> named, over both excitations and magnitudes):\n\n| hidden | named |\n|---|---|\n");
   for (const auto& row : confusion) {
     std::string cells;

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 #include "sma/fixed.hpp"
+#include "sma_host/progress.hpp"
 #include "sma_host/tune.hpp"
 
 using sma_host::Condition;
@@ -48,6 +49,7 @@ int main(int argc, char** argv) {
                              sma::Mode::Preview};
   const sma_host::Objective objective = sma_host::Objective::WholeRun;
   int done = 0;
+  sma_host::CaseLine progress;
   for (int c = 0; c < 2; ++c)
     for (int sine = 1; sine >= 0; --sine)
       for (sma::Mode mode : modes) {
@@ -57,7 +59,7 @@ int main(int argc, char** argv) {
         s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
         if (mode == sma::Mode::Preview) s.preview = sma_host::tune_preview(s, objective).config;
         else if (mode != sma::Mode::Feedforward) s.config.gains = sma_host::tune_pid(s, objective).gains;
-        std::fprintf(stderr, "\r[%2d/16] tuning and running %-5s %-5s %-8s", ++done,
+        progress("[%2d/16] tuning and running %-5s %-5s %s", ++done,
                      sine ? "sine" : "steps", sma::mode_name(mode), s.condition.name);
         const char* names[] = {"double", "float", "fixed"};
         for (int k = 0; k < 3; ++k) {
@@ -67,7 +69,7 @@ int main(int argc, char** argv) {
           rows.push_back(r);
         }
       }
-  std::fprintf(stderr, "\n");
+  progress.finish();
 
   // Plant speed: simulated seconds per wall second, plain and with a thermal effect.
   double speed[2];

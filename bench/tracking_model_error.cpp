@@ -14,6 +14,7 @@
 #include "sma/console.hpp"
 #include "sma_host/metrics.hpp"
 #include "sma_host/plant_b_rig.hpp"
+#include "sma_host/progress.hpp"
 
 using sma_host::Metrics;
 using sma_host::RunSetup;
@@ -88,10 +89,11 @@ int main(int argc, char** argv) {
   const std::vector<Case> cs = cases();
   std::vector<Row> rows;
   int done = 0;
+  sma_host::CaseLine progress;
   for (const Case& c : cs)
     for (int sine = 0; sine <= 1; ++sine)
       for (sma::Mode mode : modes) {
-        std::fprintf(stderr, "\r[%2d/%2d] %-32s", ++done, static_cast<int>(cs.size() * 6), c.name.c_str());
+        progress("[%2d/%2d] %s", ++done, static_cast<int>(cs.size() * 6), c.name.c_str());
         RunSetup s;
         s.mode = mode;
         s.condition = sma_host::Condition::rig_like();
@@ -110,7 +112,7 @@ int main(int argc, char** argv) {
         }
         rows.push_back(row);
       }
-  std::fprintf(stderr, "\n");
+  progress.finish();
   std::printf("Rig-like, float, default settings; true position, whole run (sine after its first "
               "period). Overshoot: past each new setpoint within 10 s of its step. Wrong-way: after / before\n"
               "a reversal or down-step (before: past a held setpoint, away from the next one).\n\n"

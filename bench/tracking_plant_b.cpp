@@ -14,6 +14,7 @@
 #include "sma/console.hpp"
 #include "sma_host/metrics.hpp"
 #include "sma_host/plant_b_rig.hpp"
+#include "sma_host/progress.hpp"
 
 using sma_host::Condition;
 using sma_host::Metrics;
@@ -55,6 +56,7 @@ int main(int argc, char** argv) {
   const char* plant_names[] = {"library", "B (rpm)", "B (literal)"};
   const sma::Mode modes[] = {sma::Mode::Pid, sma::Mode::FeedforwardPid, sma::Mode::Preview};
   std::vector<Row> rows;
+  sma_host::CaseLine progress;
   for (int c = 1; c >= 0; --c)
     for (int sine = 1; sine >= 0; --sine)
       for (int plant = 0; plant < 3; ++plant)
@@ -64,15 +66,15 @@ int main(int argc, char** argv) {
           s.condition = c ? Condition::rig_like() : Condition::ideal();
           s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
           if (mode != sma::Mode::Preview) s.config.gains = sma::console::default_gains(mode);
-          std::fprintf(stderr, "\r%-5s %-8s %-12s %-7s", sine ? "sine" : "steps", s.condition.name,
-                       plant_names[plant], sma::mode_name(mode));
+          progress("%-5s %-8s %-12s %s", sine ? "sine" : "steps", s.condition.name,
+                   plant_names[plant], sma::mode_name(mode));
           for (int k = 0; k < 2; ++k) {
             Row r{plant_names[plant], sine ? "sine" : "multi-step", s.condition.name, sma::mode_name(mode),
                   k ? "float" : "double", k ? run<float>(plant, s) : run<double>(plant, s)};
             rows.push_back(r);
           }
         }
-  std::fprintf(stderr, "\n");
+  progress.finish();
 
   std::printf("Controllers with the library's model (paper parameters) and the firmware's default "
               "settings, true position; whole run (sine: after its first period; steps: from t = 0).\n\n");

@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -115,6 +116,36 @@ class RoundsProgress {
   int round_ = 1;
   ProgressLine line_;
   std::mutex mutex_;
+};
+
+
+// A benchmark's "[k/N] case" line on stderr: redrawn in place on a terminal, one plain line per
+// case in a log (a CI log would otherwise hold every case on one carriage-return line).
+class CaseLine {
+ public:
+  CaseLine() : tty_(isatty(2) != 0) {}
+  CaseLine(const CaseLine&) = delete;
+  CaseLine& operator=(const CaseLine&) = delete;
+  ~CaseLine() { finish(); }
+  void operator()(const char* fmt, ...) __attribute__((format(printf, 2, 3))) {
+    std::va_list args;
+    va_start(args, fmt);
+    if (tty_) std::fputs("\r\x1b[K", stderr);
+    std::vfprintf(stderr, fmt, args);
+    va_end(args);
+    if (!tty_) std::fputc('\n', stderr);
+    std::fflush(stderr);
+    open_ = tty_;
+  }
+  // Ends the terminal's redrawn line (nothing to do in a log).
+  void finish() {
+    if (open_) std::fputc('\n', stderr);
+    open_ = false;
+  }
+
+ private:
+  bool tty_;
+  bool open_ = false;
 };
 
 }  // namespace sma_host
