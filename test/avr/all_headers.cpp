@@ -7,6 +7,8 @@
 #include <sma/console.hpp>
 #include <sma/safety.hpp>
 
+#include "../board_test_rig.hpp"
+
 #if defined(SMA_AVR_SCALAR_fixed)
 typedef sma::Fixed Scalar;
 #else
@@ -16,24 +18,7 @@ typedef float Scalar;
 volatile float g_in = 0.4f;
 
 // The board's unit with a rig of constants and outputs that go nowhere.
-struct AvrTestRig {
-  static constexpr double tick_hz() { return 100; }
-  static constexpr double v_max() { return 2.0; }
-  static constexpr double v_supply() { return 5.0; }
-  static constexpr unsigned long pwm_top() { return 15999; }
-  static constexpr double adc_vref() { return 5.0; }
-  static constexpr double adc_counts() { return 1024; }
-  static constexpr double sensor_mm_per_v() { return 0.4; }
-  static constexpr double sensor_offset_mm() { return -0.5; }
-  static constexpr double sensor_v_min() { return 0.1; }
-  static constexpr double sensor_v_max() { return 4.9; }
-  static constexpr double t_limit_C() { return 110.0; }
-  static constexpr double link_timeout_s() { return 0.0; }
-  static constexpr double stroke_mm() { return 1.5; }
-  static constexpr bool model() { return true; }
-  static constexpr bool train() { return true; }
-  static constexpr bool compensate() { return true; }
-};
+typedef BoardTestRig AvrTestRig;
 volatile uint8_t g_sink;
 struct AvrTestHw {
   bool line(const char* s, uint8_t len) {

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "../board_test_rig.hpp"
 #include "board_test_io.hpp"
 #include "sma/board.hpp"
 
@@ -14,23 +15,9 @@ namespace {
 
 // A rig whose boot limit is not the console's historical 110 degC: a command that reset the
 // latch from a default would show.
-struct TestRig {
-  static constexpr double tick_hz() { return 100; }
+struct TestRig : BoardTestRig {
   static constexpr double v_max() { return 1.8; }
-  static constexpr double v_supply() { return 5.0; }
-  static constexpr unsigned long pwm_top() { return 15999; }
-  static constexpr double adc_vref() { return 5.0; }
-  static constexpr double adc_counts() { return 1024; }
-  static constexpr double sensor_mm_per_v() { return 0.4; }
-  static constexpr double sensor_offset_mm() { return -0.5; }
-  static constexpr double sensor_v_min() { return 0.1; }
-  static constexpr double sensor_v_max() { return 4.9; }
   static constexpr double t_limit_C() { return 95.0; }
-  static constexpr double link_timeout_s() { return 0.0; }
-  static constexpr double stroke_mm() { return 1.5; }
-  static constexpr bool model() { return true; }
-  static constexpr bool train() { return true; }
-  static constexpr bool compensate() { return true; }
 };
 
 typedef BoardTestIo Io;
