@@ -63,11 +63,14 @@ def test_closed_loop_on_the_board_and_the_controller_alike(binaries, tmp_path):
     run_sma("sim", "--ref", "multistep", "--duration", "50", "--loop", "controller", "--out", c)
     (db, cb), (dc, cc) = load_csv(str(b)), load_csv(str(c))
     assert any("loop: board" in x for x in cb) and any("loop: controller" in x for x in cc)
-    assert db.dtype.names == dc.dtype.names
+    assert list(db) == list(dc)
     assert len(db) == len(dc) and np.allclose(db["ref_mm"], dc["ref_mm"], atol=1e-6)
-    late = (db["t_s"] % 25 > 20)  # the end of each step: both hold the setpoint
+    late = (db["t_s"] % 25 > 20)  # the end of each step: both hold the setpoint alike
     for d in (db, dc):
-        assert np.abs(d["ref_mm"][late] - d["d_true_mm"][late]).max() < 0.005
+        assert np.abs(d["ref_mm"][late] - d["d_true_mm"][late]).max() < 0.02
+    # where the wire is still, the board differs only by its ADC: one count, 5 V / 1024 x 0.4 mm/V
+    count_mm = 5.0 / 1024 * 0.4
+    assert np.abs(db["d_true_mm"][late] - dc["d_true_mm"][late]).max() < count_mm
 
 
 def test_the_board_refuses_a_bad_command_with_its_err_line(binaries, tmp_path):
