@@ -1,9 +1,12 @@
 // sma_sim: runs the simulated rig (sma::Plant) and writes a rig log.
-//   closed loop : a reference (multi-step, sine, constant, trajectory CSV) with the library's
-//                 controller (sma_host::run_closed_loop);
+//   closed loop : a reference (multi-step, sine, constant, trajectory CSV) run by the board's
+//                 logic, sma::Board, configured by console lines as a user would
+//                 (sma_host::run_board_loop), or by the library's controller alone
+//                 (--loop controller: sma_host::run_closed_loop; any --dt, --v-supply, --adc-step);
 //   open loop   : a voltage signal (constant, steps, CSV of t,V, the paper's training signal);
 //   replay      : the v_V of an existing log through the model: adds the model's displacement,
 //                 temperature and fraction to the log's own columns (what `sma plot` uses).
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -12,6 +15,7 @@
 #include <string>
 #include <vector>
 #include "sma/console.hpp"
+#include "sma_host/board_rig.hpp"
 #include "sma_host/closed_loop.hpp"
 #include "sma_tools/cli.hpp"
 #include "sma_tools/params_json.hpp"
@@ -38,8 +42,16 @@ static const char* kUsage =
     "  --out FILE             output CSV (default: stdout)\n"
     "closed loop:\n"
     "  --ref multistep|sine|const:MM|traj:FILE.csv   (trajectory CSV: t_s,mm rows, <= 16)\n"
-    "  --mode ffpid|pid|ff    controller (default ffpid), gains: console defaults\n"
+    "  --mode ffpid|pid|ff|preview  controller (default ffpid), gains: console defaults\n"
     "  --gains KP,KI,KD       override the PID gains\n"
+    "  --loop board|controller  board (default): the firmware's logic (sma::Board) at the\n"
+    "                         rig's constants (rig_config.h: 100 Hz, 10-bit ADC sampled every\n"
+    "                         1 ms, PWM counts), configured by the console lines a user sends\n"
+    "                         (model: pbegin, pset per key, pcommit; mode; gains; the reference);\n"
+    "                         its ADC and PWM replace --adc-step and the rig-like PWM levels.\n"
+    "                         controller: the library's controller alone at --dt\n"
+    "  --send LINE            board: one more console line before the reference starts\n"
+    "                         (repeatable), e.g. 'tlim 90', 'cool 2'; an ERR reply stops the run\n"
     "  --model-params M.json  what the controller believes (default: the same wire, no effects)\n"
     "  --duration S           run length (default: the reference's own)\n"
     "open loop:\n"
@@ -79,8 +91,9 @@ sma::Reference trajectory_from_csv(const std::string& path) {
 }
 
 struct Options {
-  std::string params, model_params, out, ref, volt, replay, mode = "ffpid", gains;
-  std::vector<std::string> effects;
+  std::string params, model_params, out, ref, volt, replay, mode = "ffpid", gains, loop = "board";
+  std::vector<std::string> effects, send;
+  bool dt_given = false, v_supply_given = false;
   double noise = 0, adc = 0, dt = 0.01, v_supply = 5.0, duration = 0, eps0 = -1;
   unsigned long seed = 1;
   bool rig_like = false, tare = false;
@@ -106,8 +119,10 @@ int run(int argc, char** argv) {
     else if (k == "--adc-step") o.adc = a.number(k);
     else if (k == "--rig-like") o.rig_like = true;
     else if (k == "--seed") o.seed = static_cast<unsigned long>(a.number(k));
-    else if (k == "--dt") o.dt = a.number(k);
-    else if (k == "--v-supply") o.v_supply = a.number(k);
+    else if (k == "--dt") o.dt = a.number(k), o.dt_given = true;
+    else if (k == "--v-supply") o.v_supply = a.number(k), o.v_supply_given = true;
+    else if (k == "--loop") o.loop = a.value(k);
+    else if (k == "--send") o.send.push_back(a.value(k));
     else if (k == "--out") o.out = a.value(k);
     else if (k == "--ref") o.ref = a.value(k);
     else if (k == "--mode") o.mode = a.value(k);
@@ -242,7 +257,8 @@ int run(int argc, char** argv) {
     if (o.mode == "ffpid") s.mode = sma::Mode::FeedforwardPid;
     else if (o.mode == "pid") s.mode = sma::Mode::Pid;
     else if (o.mode == "ff") s.mode = sma::Mode::Feedforward;
-    else throw Error("--mode '" + o.mode + "': expected ffpid, pid or ff");
+    else if (o.mode == "preview") s.mode = sma::Mode::Preview;
+    else throw Error("--mode '" + o.mode + "': expected ffpid, pid, ff or preview");
     s.config.gains = sma::console::default_gains(s.mode == sma::Mode::Pid ? sma::Mode::Pid
                                                                           : sma::Mode::FeedforwardPid);
     if (!o.gains.empty()) {
@@ -269,10 +285,35 @@ int run(int argc, char** argv) {
     s.condition = o.rig_like ? sma_host::Condition::rig_like() : sma_host::Condition::ideal();
     s.condition.rig = rig;
     s.duration_s = o.duration;
-    const std::vector<sma_host::Sample> run = sma_host::run_closed_loop<double>(s);
+    const bool board = o.loop == "board";
+    if (!board && o.loop != "controller") throw Error("--loop '" + o.loop + "': expected board or controller");
+    std::vector<sma_host::Sample> run;
+    if (board) {
+      typedef sma_host::HostRig R;
+      // The board's rig is rig_config.h's: what it fixes cannot be set here.
+      if (o.dt_given && std::fabs(o.dt * R::tick_hz() - 1.0) > 1e-9)
+        throw Error("--dt: the board ticks at " + fmt(1.0 / R::tick_hz(), 3) + " s (rig_config.h); --loop controller for another");
+      if (o.v_supply_given && o.v_supply != R::v_supply())
+        throw Error("--v-supply: the board's supply is " + fmt(R::v_supply(), 1) + " V (rig_config.h); --loop controller for another");
+      if (o.adc > 0.0)
+        throw Error("--adc-step: the board's 10-bit ADC quantises the sensor (" +
+                    fmt(R::adc_vref() / R::adc_counts() * R::sensor_mm_per_v() * 1000.0, 2) + " um); --loop controller for another");
+      s.config.v_max = R::v_max();
+      run = sma_host::run_board_loop<R>(s, o.send);
+    } else {
+      if (!o.send.empty()) throw Error("--send: console lines go to the board (--loop board)");
+      run = sma_host::run_closed_loop<double>(s);
+    }
     head << "# signal: closed loop, reference " << o.ref << ", mode " << o.mode << ", gains "
          << s.config.gains.kp << ',' << s.config.gains.ki << ',' << s.config.gains.kd << ", "
          << s.condition.name << "\n";
+    if (board) {
+      head << "# loop: board (sma::Board at rig_config.h's constants; d_mm: the mean of the tick's ADC samples)";
+      for (const std::string& l : o.send) head << ", sent '" << l << "'";
+      head << "\n";
+    } else {
+      head << "# loop: controller (sma::Controller alone)\n";
+    }
     const double vs = rig.v_supply;
     body << "t_s,v_V,d_mm,ref_mm,duty,T_true_C,d_true_mm\n";
     for (const auto& x : run) {

@@ -52,3 +52,32 @@ def test_closed_loop_tracks(binaries, tmp_path):
     assert sorted(set(np.round(d["ref_mm"], 6))) == [0.2, 0.3, 0.4, 0.5, 0.6, 0.8]
     late = (d["t_s"] % 25 > 20) & (d["t_s"] < 75)  # end of the first three steps
     assert np.abs(d["ref_mm"][late] - d["d_mm"][late]).mean() < 0.02
+
+
+def test_closed_loop_on_the_board_and_the_controller_alike(binaries, tmp_path):
+    """The default closed loop runs the board's logic (sma::Board); --loop controller the
+    controller alone: the same rig-log columns, the same reference, tracking alike (the board reads
+    the position through its 10-bit ADC: 1.95 um per count)."""
+    b, c = tmp_path / "b.csv", tmp_path / "c.csv"
+    run_sma("sim", "--ref", "multistep", "--duration", "50", "--out", b)
+    run_sma("sim", "--ref", "multistep", "--duration", "50", "--loop", "controller", "--out", c)
+    (db, cb), (dc, cc) = load_csv(str(b)), load_csv(str(c))
+    assert any("loop: board" in x for x in cb) and any("loop: controller" in x for x in cc)
+    assert list(db) == list(dc)
+    assert len(db) == len(dc) and np.allclose(db["ref_mm"], dc["ref_mm"], atol=1e-6)
+    late = (db["t_s"] % 25 > 20)  # the end of each step: both hold the setpoint alike
+    for d in (db, dc):
+        assert np.abs(d["ref_mm"][late] - d["d_true_mm"][late]).max() < 0.02
+    # where the wire is still, the board differs only by its ADC: one count, 5 V / 1024 x 0.4 mm/V
+    count_mm = 5.0 / 1024 * 0.4
+    assert np.abs(db["d_true_mm"][late] - dc["d_true_mm"][late]).max() < count_mm
+
+
+def test_the_board_refuses_a_bad_command_with_its_err_line(binaries, tmp_path):
+    r = run_sma("sim", "--ref", "sine", "--send", "tlim 500", "--out", tmp_path / "x.csv", check=False)
+    assert r.returncode == 1
+    assert "the board refused 'tlim 500': ERR tlim:" in r.stderr
+    assert not (tmp_path / "x.csv").exists()
+    # what the board fixes (rig_config.h) is refused by name, not silently changed
+    r = run_sma("sim", "--ref", "sine", "--dt", "0.02", "--out", tmp_path / "y.csv", check=False)
+    assert r.returncode == 1 and "--dt" in r.stderr and "--loop controller" in r.stderr

@@ -26,7 +26,7 @@
 #include <vector>
 
 #include "rig_board.h"
-#include "sma/board.hpp"
+#include "sma_host/board_loop.hpp"
 #include "sma_host/plant.hpp"
 #include "sma_host/progress.hpp"
 #include "sma_tools/params_json.hpp"
@@ -263,11 +263,8 @@ struct Stats {
   double sp_min_s = 0;
 };
 
-// Millivolts on the sensor pin for a displacement (rig_config.h calibration, inverted).
-double sensor_mv(double mm) {
-  const double v = (mm - RIG_SENSOR_OFFSET_MM) / RIG_SENSOR_MM_PER_V;
-  return sma::clamp(v, 0.0, 5.0) * 1000.0;
-}
+// Millivolts on the sensor pin for a displacement (the harness's: rig_config.h calibration, inverted).
+double sensor_mv(double mm) { return sma_host::BoardLoop<RigBoard, sma::Plant>::sensor_mv(mm); }
 
 // Deterministic flood bytes: mostly printable garbage, some newlines, some binary.
 struct Flood {
@@ -658,34 +655,20 @@ int run_avr(Rig& rig) {
 
 // ---- native: the firmware's sma::Board on the host, same plant and script ----------------------
 // The same unit as firmware/src/main.cpp with the same rig constants (rig_board.h) and features
-// as the float image (RIG_FEATURE_*), the EEPROM in RAM (--eeprom loads and saves it too).
-uint8_t g_native_eeprom[1024];
-double g_native_t = 0.0;  // the stamp of the lines the board writes now
-struct NativeHw {
-  bool line(const char* s, uint8_t len) {
-    for (uint8_t k = 0; k < len; ++k) g_rig->out.byte(static_cast<uint8_t>(s[k]), g_native_t);
-    g_rig->out.byte('\n', g_native_t);
-    return true;
-  }
-  uint8_t read(uint16_t a) const { return a < sizeof g_native_eeprom ? g_native_eeprom[a] : 0xFF; }
-  void write(uint16_t a, uint8_t v) {
-    if (a < sizeof g_native_eeprom) g_native_eeprom[a] = v;
-  }
-  uint8_t irq_off() { return 0; }
-  void irq_restore(uint8_t) {}
-};
+// as the float image (RIG_FEATURE_*), driven by the host's one harness (sma_host/board_loop.hpp:
+// ADC samples every 1 ms, PWM counts back to volts, the EEPROM in RAM; --eeprom loads and saves it).
+typedef sma_host::BoardLoop<RigBoard, sma::Plant> NativeLoop;
 
-bool native_eeprom_io(const std::string& path, bool save) {
+bool native_eeprom_io(uint8_t* ee, const std::string& path, bool save) {
   if (save) {
     FILE* fo = fopen(path.c_str(), "wb");
-    const bool ok = fo && fwrite(g_native_eeprom, 1, sizeof g_native_eeprom, fo) == sizeof g_native_eeprom;
+    const bool ok = fo && fwrite(ee, 1, 1024, fo) == 1024;
     if (fo) fclose(fo);
     if (!ok) fprintf(stderr, "vrig: cannot write --eeprom %s\n", path.c_str());
     return ok;
   }
-  memset(g_native_eeprom, 0xFF, sizeof g_native_eeprom);
   if (FILE* fi = fopen(path.c_str(), "rb")) {
-    const size_t n = fread(g_native_eeprom, 1, sizeof g_native_eeprom, fi);
+    const size_t n = fread(ee, 1, 1024, fi);
     fclose(fi);
     (void)n;
   }
@@ -693,58 +676,32 @@ bool native_eeprom_io(const std::string& path, bool save) {
 }
 
 int run_native(Rig& rig) {
-  typedef sma::Board<float, RigBoard, NativeHw> Board;
-  memset(g_native_eeprom, 0xFF, sizeof g_native_eeprom);
-  if (!rig.opt.eeprom.empty() && !native_eeprom_io(rig.opt.eeprom, false)) return 2;
-  static Board board;  // static: the firmware's object, not on the stack
-  board.boot(rig.opt.wdrf, "# sma_firmware float ready: heater off; try help");
-  const double dt = 1.0 / RIG_TICK_HZ;
-  double v_applied = 0;  // held between ticks (the PWM)
-  const int sub = static_cast<int>(dt / kPlantDt + 0.5);
+  sma_host::BoardLoopOptions lo;
+  lo.sample_s = kPlantDt;
+  lo.fault_at_s = rig.opt.fault_at;
+  lo.fault_mv = rig.opt.fault_mv;
+  NativeLoop loop(*rig.plant, lo);
+  loop.set_sink([&rig](double t, const std::string& line) {
+    for (char c : line) rig.out.byte(static_cast<uint8_t>(c), t);
+    rig.out.byte('\n', t);
+  });
+  loop.on_sample = [&rig](double t) { rig.write_truth(t); };
+  if (!rig.opt.eeprom.empty() && !native_eeprom_io(loop.eeprom(), rig.opt.eeprom, false)) return 2;
+  loop.boot(rig.opt.wdrf, "# sma_firmware float ready: heater off; try help");
+  const double dt = NativeLoop::kDt;
   const long n_ticks = static_cast<long>(rig.opt.duration * RIG_TICK_HZ);
-  const double top1 = RIG_PWM_TOP + 1.0;
-  // ADC counts of the sensor's valid range (main.cpp's kAdcLo/kAdcHi).
-  const uint16_t adc_lo = static_cast<uint16_t>(RIG_SENSOR_V_MIN / RIG_ADC_VREF * RIG_ADC_COUNTS + 0.5);
-  const uint16_t adc_hi = static_cast<uint16_t>(RIG_SENSOR_V_MAX / RIG_ADC_VREF * RIG_ADC_COUNTS + 0.5);
   sma_host::ProgressLine progress("vrig --native: simulated s", rig.opt.quiet ? rig.opt.duration : 0.0);
   for (long k = 0; k < n_ticks; ++k) {
     const double t = k * dt;
     progress(t);
-    g_native_t = t;
-    // Console input due by now: every line handled at once (the firmware defers a line by at
-    // most one tick when it completes less than 3 ms before the next).
-    while (rig.script_pos < rig.script.size() && rig.script[rig.script_pos].t <= t) {
-      const std::string s = rig.script[rig.script_pos++].text + "\n";
-      for (char ch : s) {
-        if (!board.rx(ch)) continue;
-        board.handle_line();
-        if (board.model_pending()) board.run_model_op();
-        board.poll();
-      }
-    }
-    // Sensor: 1 ms samples of the last tick, 10-bit ADC counts as the firmware's ISR sums them.
-    uint32_t sum = 0;
-    uint8_t n = 0, bad = 0;
-    for (int j = 0; j < sub; ++j) {
-      rig.plant->step(v_applied, kPlantDt);
-      rig.write_truth(t + (j + 1) * kPlantDt);
-      double mv = sensor_mv(rig.plant->measure());
-      if (rig.opt.fault_at >= 0 && t >= rig.opt.fault_at) mv = rig.opt.fault_mv;
-      double c = floor(mv / 5000.0 * 1024.0);
-      c = c < 0 ? 0 : c > 1023 ? 1023 : c;
-      const uint16_t a = static_cast<uint16_t>(c);
-      sum += a;
-      ++n;
-      if (a < adc_lo || a > adc_hi) ++bad;
-    }
-    const uint16_t counts = board.control(sum, n, bad);
-    v_applied = RIG_V_SUPPLY * sqrt(counts / top1);
+    // Console input due by now.
+    while (rig.script_pos < rig.script.size() && rig.script[rig.script_pos].t <= t)
+      loop.send_bytes(rig.script[rig.script_pos++].text + "\n");
     ++rig.st.ticks;
-    board.report();
-    board.poll();
+    loop.tick();
   }
   write_json(rig.opt, rig.st, "native", n_ticks * dt);
-  if (!rig.opt.eeprom.empty() && !native_eeprom_io(rig.opt.eeprom, true)) return 2;
+  if (!rig.opt.eeprom.empty() && !native_eeprom_io(loop.eeprom(), rig.opt.eeprom, true)) return 2;
   return 0;
 }
 

@@ -1,11 +1,24 @@
-// Host side: one closed-loop run of a Controller<T> against the simulated Plant, at the
-// controller's tick, as the firmware runs it: measure, compute, apply.
+// Host side: one closed-loop run against the simulated Plant, two ways:
+//   run_board_loop_on  the board's logic, sma::Board, through the host's one harness
+//                      (board_loop.hpp), configured by the console lines a user sends: what
+//                      `tools/sma sim` runs by default;
+//   run_closed_loop_on a Controller<T> / PreviewController<T> at the controller's tick, measure,
+//                      compute, apply: any scalar, tick rate, rig condition and preview setting,
+//                      at a fraction of the Board's cost (the tracking benchmarks and the tuner
+//                      run thousands of these loops).
 // Shared by the native tests, the tracking benchmark and `tools/sma sim`.
 #ifndef SMA_HOST_CLOSED_LOOP_HPP
 #define SMA_HOST_CLOSED_LOOP_HPP
 
+#include <stdio.h>
+
+#include <string>
 #include <vector>
+#include "sma/console.hpp"
 #include "sma/controller.hpp"
+#include "sma/storage.hpp"
+#include "sma_host/board_loop.hpp"
+#include "sma_host/error.hpp"
 #include "sma_host/plant.hpp"
 #include "sma/preview.hpp"
 #include "sma/reference.hpp"
@@ -160,6 +173,150 @@ template <class T>
 std::vector<Sample> run_closed_loop(const RunSetup& s) {
   sma::Plant plant(s.plant_params, s.plant_effects, s.condition.rig);
   return run_closed_loop_on<T>(plant, s);
+}
+
+// ---- the same run on the Board ---------------------------------------------------------------
+// A plain decimal (the console takes no exponent) of x in at most `room` characters, with as many
+// of ~9 significant digits as fit.
+inline std::string console_number(double x, size_t room) {
+  if (x == 0.0) return "0";
+  int dec = 8 - static_cast<int>(floor(log10(fabs(x))));
+  if (dec < 0) dec = 0;
+  for (;; --dec) {
+    char buf[64];
+    snprintf(buf, sizeof buf, "%.*f", dec, x);
+    std::string t(buf);
+    if (t.find('.') != std::string::npos) {
+      t.erase(t.find_last_not_of('0') + 1);
+      if (t.back() == '.') t.pop_back();
+    }
+    if (t.size() <= room || dec == 0) return t;
+  }
+}
+
+// `pset <key> <value>` within a console line; an effect key too long for its value goes as its
+// parameter alone (sensor_delay.delay_s -> delay_s), which the board accepts too.
+inline std::string pset_line(uint8_t key, double value) {
+  struct Name {
+    std::string s;
+    void put(char c) { s.push_back(c); }
+  } n;
+  sma::storage::put_key_name(n, key);
+  std::vector<std::string> names{n.s};
+  const size_t dot = n.s.find('.');
+  if (key >= sma::storage::kFirstEffect && dot != std::string::npos) names.push_back(n.s.substr(dot + 1));
+  std::string line;
+  for (const std::string& name : names) {
+    const size_t room = sma::console::kLineMax - 6 - name.size();
+    line = "pset " + name + " " +
+           (key == sma::storage::kKeyLoops ? std::to_string(static_cast<int>(value)) : console_number(value, room));
+    if (line.size() <= sma::console::kLineMax) break;
+  }
+  return line;
+}
+
+// The console lines that give the board the run `s` describes: the model (pbegin, a pset per key,
+// pcommit: sma upload's sequence), the controller and its gains, then the reference (which
+// starts the run). What the console cannot set is refused here, naming the setting.
+inline std::vector<std::string> board_commands(const RunSetup& s) {
+  using sma::Mode;
+  if (s.model_params.reheat != sma::Reheat::return_point)
+    throw Error("the board's model reads a re-heat by its return point only (reheat \"return_point\")");
+  std::vector<std::string> c{"pbegin"};
+  for (uint8_t k = 0; k < sma::storage::kNumKeys; ++k)
+    c.push_back(pset_line(k, sma::storage::get_value(s.model_params, s.model_effects, k)));
+  c.push_back("pcommit");
+  c.push_back(std::string("mode ") + sma::mode_name(s.mode));
+  if (s.mode == Mode::Pid || s.mode == Mode::FeedforwardPid) {
+    const sma::PidGains d = sma::console::default_gains(s.mode);
+    if (s.config.gains.d_filter_s != d.d_filter_s || s.config.gains.i_zone_mm != d.i_zone_mm)
+      throw Error("the board's console sets kp, ki, kd only (d_filter_s, i_zone_mm are its defaults)");
+    const size_t room = 14;
+    c.push_back("gains " + console_number(s.config.gains.kp, room) + " " + console_number(s.config.gains.ki, room) + " " +
+                console_number(s.config.gains.kd, room));
+  }
+  if (s.mode == Mode::Preview && s.preview.cool_weight != sma::PreviewConfig().cool_weight)
+    c.push_back("cool " + console_number(s.preview.cool_weight, 20));
+  const sma::Reference& r = s.reference;
+  const sma::Reference paper = r.kind == sma::RefKind::Sine ? sma::Reference::sine() : sma::Reference::multi_step();
+  switch (r.kind) {
+    case sma::RefKind::Sine:
+      if (r.sine_lo_mm != paper.sine_lo_mm || r.sine_hi_mm != paper.sine_hi_mm || r.sine_period_s != paper.sine_period_s)
+        throw Error("the board's sine is the paper's (0.2..0.7 mm, 50 s): give another as a trajectory");
+      c.push_back("sine");
+      break;
+    case sma::RefKind::MultiStep:
+      for (uint8_t k = 0; k < sma::kMaxSteps; ++k)
+        if (r.n_steps != paper.n_steps || r.step_s != paper.step_s || (k < r.n_steps && r.step_mm[k] != paper.step_mm[k]))
+          throw Error("the board's multi-step is the paper's: give another as a trajectory");
+      c.push_back("step");
+      break;
+    case sma::RefKind::Trajectory:
+      c.push_back("traj clear");
+      for (uint8_t k = 0; k < r.n_points; ++k)
+        c.push_back("traj " + console_number(r.point_t[k], 20) + " " + console_number(r.point_mm[k], 20));
+      c.push_back("traj run");
+      break;
+    default:
+      c.push_back("pos " + console_number(r.constant_mm, 30));
+  }
+  return c;
+}
+
+// The run on the Board: `s`'s commands sent before the first tick (each must be answered OK,
+// else Error with the board's reply), then `extra` lines (e.g. tlim, cool) before the reference
+// starts, the plant sampled by the board's ADC and driven by its PWM (the plant's own ADC step
+// and PWM levels are the board's here: give the plant neither). s.config's dt and v_max are the
+// rig's (Rig), the compute delay is the board's own (none added).
+// Row k: t_k; ref and meas as the board's tick k saw them (meas: the mean of the tick's samples,
+// before the sensor compensation); truth, temp at t_k; v (v1) the voltage (feedforward) the
+// wire got from t_k to t_k+1.
+template <class Rig, class PlantT>
+std::vector<Sample> run_board_loop_on(PlantT& plant, const RunSetup& s, const std::vector<std::string>& extra = {}) {
+  if (fabs(s.config.dt * Rig::tick_hz() - 1.0) > 1e-9 || s.config.v_max != Rig::v_max())
+    throw Error("the board ticks at " + std::to_string(static_cast<int>(Rig::tick_hz())) + " Hz with V_max " +
+                console_number(Rig::v_max(), 10) + " V (rig_config.h)");
+  BoardLoopOptions o;
+  o.plan_steps = s.idle_plan_steps;
+  BoardLoop<Rig, PlantT> loop(plant, o);
+  loop.boot();
+  std::vector<std::string> lines = board_commands(s);
+  lines.insert(lines.end() - (s.reference.kind == sma::RefKind::Trajectory ? 2 + s.reference.n_points : 1), extra.begin(),
+               extra.end());
+  for (const std::string& l : lines) {
+    const std::string reply = loop.send(l);
+    if (reply.compare(0, 2, "OK") != 0) throw Error("the board refused '" + l + "': " + reply);
+  }
+  const double duration = s.duration_s > 0.0 ? s.duration_s : s.reference.duration();
+  const long n = static_cast<long>(duration * Rig::tick_hz() + 0.5);
+  std::vector<Sample> out;
+  out.reserve(static_cast<size_t>(n));
+  double v = 0.0, v1 = 0.0;  // what the wire gets over the next tick
+  for (long k = 0; k < n; ++k) {
+    Sample x;
+    x.t = loop.time();
+    x.truth = plant.displacement();
+    x.temp = plant.temperature();
+    x.v = v;
+    x.v1 = v1;
+    v = loop.tick().v;
+    v1 = s.mode == sma::Mode::Preview ? 0.0 : sma::to_double(loop.board().controller().v1());
+    const sma::console::Live& live = loop.board().live();
+    x.ref = live.ref_mm;
+    x.meas = live.d_mm;
+    out.push_back(x);
+  }
+  return out;
+}
+
+template <class Rig>
+std::vector<Sample> run_board_loop(const RunSetup& s, const std::vector<std::string>& extra = {}) {
+  sma::RigOptions rig = s.condition.rig;
+  rig.adc_step_mm = 0.0;  // the board's ADC
+  rig.pwm_top = 0;        // the board's PWM counts
+  rig.v_supply = Rig::v_supply();
+  sma::Plant plant(s.plant_params, s.plant_effects, rig);
+  return run_board_loop_on<Rig>(plant, s, extra);
 }
 
 }  // namespace sma_host

@@ -40,7 +40,6 @@ namespace sma_host {
 
 struct EffectSpec {
   sma::param::Row row[2];    // its parameters: rows of the parameter table (none: one only)
-  double lo[2], hi[2];       // search bounds (inside the table's range: test_discrepancy)
   double scale[2];           // typical size: the optimiser works on value / scale
   double start[3][2];        // starting points [start][param]
   int n_starts;
@@ -48,7 +47,8 @@ struct EffectSpec {
   // A base parameter each parameter is only observable jointly with (nullptr: none): held at
   // its given value when that base parameter is refitted.
   const char* held_with[2];
-  // From the parameter table (vocabulary() fills them in):
+  // From the parameter table and search_range (identify.hpp; vocabulary() fills them in):
+  double lo[2] = {0, 0}, hi[2] = {0, 0};  // search bounds
   std::string name = "";     // interfaces.md vocabulary
   int n = 0;                 // parameters (1 or 2)
   std::string param[2] = {"", ""};  // JSON names
@@ -64,33 +64,32 @@ inline const std::vector<EffectSpec>& vocabulary() {
     std::vector<EffectSpec> s = {
       // A third start at 10 ms: a sensor that averages over the 10 ms tick (the firmware's
       // telemetry) lags by ~5 ms, which LM does not reach from 50 ms past the bound at 0.
-      {{R::delay_s, R::none}, {0, 0}, {2, 0}, {0.1, 1},
+      {{R::delay_s, R::none}, {0.1, 1},
        {{0.05, 0}, {0.4, 0}, {0.01, 0}}, 3, "a sharp voltage step: a delay shifts the whole edge, a lag rounds it", {nullptr, nullptr}},
-      {{R::tau_s, R::none}, {0, 0}, {5, 0}, {0.2, 1},
+      {{R::tau_s, R::none}, {0.2, 1},
        {{0.1, 0}, {1.0, 0}, {0.01, 0}}, 3, "a sharp voltage step: a lag rounds the edge, a delay shifts it", {nullptr, nullptr}},
-      {{R::gain, R::offset_mm},
-       {0.5, -2}, {2, 2}, {0.1, 0.05}, {{1.0, 0.0}, {1.1, 0.0}}, 2,
+      {{R::gain, R::offset_mm}, {0.1, 0.05}, {{1.0, 0.0}, {1.1, 0.0}}, 2,
        "holds at both ends of the stroke (cold and fully transformed)", {"g", nullptr}},  // gain x g
-      {{R::offset_K, R::none}, {-30, 0}, {30, 0}, {2, 1},
+      {{R::offset_K, R::none}, {2, 1},
        {{-3, 0}, {3, 0}}, 2, "steady holds at several voltages: an offset shifts all steady states equally", {nullptr, nullptr}},
       // Three starts over the plausible range: with the whole base refitted, a wire of beta 0.006
       // is reached from 0.005 only; from 0.002 and 0.01 LM stops in side minima where g and T_AS
       // absorb the rest.
-      {{R::beta_per_K, R::none}, {0, 0},
-       {0.05, 0}, {0.005, 1}, {{0.002, 0}, {0.005, 0}, {0.01, 0}}, 3,
+      {{R::beta_per_K, R::none}, {0.005, 1}, {{0.002, 0}, {0.005, 0}, {0.01, 0}}, 3,
        "steady holds at several voltages: its loss grows with the temperature rise", {nullptr, nullptr}},
-      {{R::k_R, R::none}, {-0.5, 0}, {1.0, 0}, {0.1, 1},
+      {{R::k_R, R::none}, {0.1, 1},
        {{-0.1, 0}, {0.1, 0}}, 2, "holds inside the transformation band at a constant voltage", {nullptr, nullptr}},
-      {{R::L_J, R::none}, {0, 0}, {20, 0}, {1, 1},
+      {{R::L_J, R::none}, {1, 1},
        {{0.5, 0}, {3.0, 0}}, 2, "fast voltage steps through the transformation band", {nullptr, nullptr}},
-      {{R::alpha_per_K, R::none}, {0, 0}, {1e-4, 0},
-       {1e-5, 1}, {{5e-6, 0}, {2e-5, 0}}, 2,
+      {{R::alpha_per_K, R::none}, {1e-5, 1}, {{5e-6, 0}, {2e-5, 0}}, 2,
        "heating past the end of the transformation: the position falls as the hot wire lengthens", {nullptr, nullptr}},
     };
     for (EffectSpec& e : s) {
       e.n = e.row[1] == R::none ? 1 : 2;
       for (int i = 0; i < e.n; ++i) {
         e.key[i] = sma::param::first_key(e.row[i]);
+        e.lo[i] = search_range(e.row[i]).lo;
+        e.hi[i] = search_range(e.row[i]).hi;
         e.param[i] = param_of_key(e.key[i]);
       }
       e.name = effect_of_key(e.key[0]);

@@ -334,6 +334,27 @@ struct FitStep {
   double scale;
   double lo = -INFINITY, hi = INFINITY;
 };
+// The search ranges of the effects' parameters (inside the table's range: test_discrepancy): the
+// discrepancy vocabulary searches each effect within them, fit_step clamps the sensor effects'
+// and k_R's to them.
+struct SearchRange {
+  double lo, hi;
+};
+inline SearchRange search_range(sma::param::Row r) {
+  using R = sma::param::Row;
+  switch (r) {
+    case R::delay_s: return {0.0, 2.0};
+    case R::tau_s: return {0.0, 5.0};
+    case R::gain: return {0.5, 2.0};
+    case R::offset_mm: return {-2.0, 2.0};
+    case R::offset_K: return {-30.0, 30.0};
+    case R::beta_per_K: return {0.0, 0.05};
+    case R::k_R: return {-0.5, 1.0};
+    case R::L_J: return {0.0, 20.0};
+    case R::alpha_per_K: return {0.0, 1e-4};
+    default: return {-INFINITY, INFINITY};
+  }
+}
 inline FitStep fit_step(sma::param::Row r, const Model& m) {
   using R = sma::param::Row;
   switch (r) {
@@ -345,10 +366,10 @@ inline FitStep fit_step(sma::param::Row r, const Model& m) {
     case R::loop_j: return {0.02};
     case R::offset_mm: return {0.01 * m.p.g};  // 1 % of the stroke
     case R::offset_K: return {2.0};
-    case R::delay_s: return {0.1, 0.0, 2.0};
-    case R::tau_s: return {0.2, 0.0, 5.0};
+    case R::delay_s: return {0.1, search_range(r).lo, search_range(r).hi};
+    case R::tau_s: return {0.2, search_range(r).lo, search_range(r).hi};
     case R::beta_per_K: return {1e-3};
-    case R::k_R: return {0.1, -0.5, 1.0};
+    case R::k_R: return {0.1, search_range(r).lo, search_range(r).hi};
     case R::L_J: return {0.5};
     case R::alpha_per_K: return {1e-6};
     default: return {0.0};
