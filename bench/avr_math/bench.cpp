@@ -96,7 +96,9 @@ uint8_t self_check() {
   const int32_t edges[] = {0,          1,          -1,          INT32_C(65536), -INT32_C(65536),
                            INT32_MAX,  INT32_MIN,  INT32_C(0x7FFF8000),  INT32_C(181) * 65536,
                            INT32_C(-182) * 65536,  INT32_C(0x8000),      INT32_C(0x18000),
-                           INT32_C(-0x8000)};
+                           INT32_C(-0x8000),     INT32_C(0xFFFFFF),    INT32_C(-0xFFFFFF),
+                           INT32_C(0x1000000),   INT32_C(-0x1000000),  INT32_C(0x7FFFFF),
+                           INT32_C(-0x800000)};
   constexpr uint8_t kEdges = sizeof(edges) / sizeof(edges[0]);
   for (uint8_t i = 0; i < kEdges; ++i) {
     for (uint8_t j = 0; j < kEdges; ++j) {
