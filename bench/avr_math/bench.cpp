@@ -129,6 +129,8 @@ uint8_t self_check() {
     const uint8_t d = static_cast<uint8_t>(b) != 0 ? static_cast<uint8_t>(b) : static_cast<uint8_t>(1);
     const uint32_t n = static_cast<uint32_t>(a) % (static_cast<uint32_t>(d) << 15);
     if (sma::fixed_detail::ratio_q17(n, d) != sma::fixed_detail::ratio_q17_portable(n, d)) ++mismatches;
+    const uint32_t n10 = static_cast<uint32_t>(a) % (static_cast<uint32_t>(d) << 10);  // a mean below 1024
+    if (sma::fixed_detail::fraction_q7(n10, d) != sma::fixed_detail::fraction_q7_portable(n10, d)) ++mismatches;
     const uint16_t x = static_cast<uint16_t>(a);
     const uint16_t y = static_cast<uint16_t>(b);
     if (sma::fixed_detail::mul16(x, y) != mul16_libgcc(x, y)) ++mismatches;

@@ -818,12 +818,12 @@ inline uint16_t ratio_top(uint32_t n) {
 // n's low 15 bits at the top of a word (the dividend bits still to shift in), by a 16-bit shift
 // and a byte move.
 inline uint32_t ratio_rest(uint32_t n) { return static_cast<uint32_t>(static_cast<uint16_t>(lo16(n) << 1)) << 16; }
-// floor(n 2^17 / d) for n / 2^15 < d: the loop in C. Portable version; on the AVR the reference
-// bench/avr_math checks the assembly against (CTest avr_math_bench).
-inline uint32_t ratio_q17_portable(uint32_t n, uint8_t d) {
-  uint8_t r = static_cast<uint8_t>(ratio_top(n));
-  uint32_t q = ratio_rest(n);
-  for (uint8_t i = 0; i < 32; ++i) {
+// The restoring division by an 8-bit d: r < d the remainder so far, q the dividend bits still
+// to shift in (at its top); each of the `steps` steps shifts one of them into r and the quotient
+// bit into q's bottom. The loop in C. Portable version; on the AVR the reference bench/avr_math
+// checks the assembly against (CTest avr_math_bench).
+inline uint32_t divide_steps_portable(uint8_t r, uint32_t q, uint8_t d, uint8_t steps) {
+  for (uint8_t i = 0; i < steps; ++i) {
     const uint16_t r2 = static_cast<uint16_t>((r << 1) | ((q & kHalfQ32) != 0 ? 1u : 0u));
     q <<= 1;
     if (r2 >= d) {
@@ -835,11 +835,8 @@ inline uint32_t ratio_q17_portable(uint32_t n, uint8_t d) {
   }
   return q;
 }
-inline uint32_t ratio_q17(uint32_t n, uint8_t d) {
+inline uint32_t divide_steps(uint8_t r, uint32_t q, uint8_t d, uint8_t steps) {
 #if defined(__AVR__)
-  uint8_t r = static_cast<uint8_t>(ratio_top(n));  // n / 2^15 < d <= 255
-  uint32_t q = ratio_rest(n);  // n's 15 low bits, then the quotient's
-  uint8_t count = 32;
   __asm__(
       "1:                 \n\t"
       "lsl  %A[q]         \n\t"
@@ -856,12 +853,31 @@ inline uint32_t ratio_q17(uint32_t n, uint8_t d) {
       "3:                 \n\t"
       "dec  %[c]          \n\t"
       "brne 1b            \n\t"
-      : [q] "+r"(q), [r] "+r"(r), [c] "+r"(count)
+      : [q] "+r"(q), [r] "+r"(r), [c] "+r"(steps)
       : [d] "r"(d));
   return q;
 #else
-  return ratio_q17_portable(n, d);
+  return divide_steps_portable(r, q, d, steps);
 #endif
+}
+// floor(n 2^17 / d) for n / 2^15 < d: n's top bits start the remainder, 32 steps.
+inline uint32_t ratio_q17_portable(uint32_t n, uint8_t d) {
+  return divide_steps_portable(static_cast<uint8_t>(ratio_top(n)), ratio_rest(n), d, 32);
+}
+inline uint32_t ratio_q17(uint32_t n, uint8_t d) {
+  return divide_steps(static_cast<uint8_t>(ratio_top(n)), ratio_rest(n), d, 32);
+}
+// floor(n 2^7 / d) for n / 2^10 < d (a mean below 1024): n / 2^10 starts the remainder, n's low
+// 10 bits and 7 zeros follow: 17 steps. The shifts by 16-bit halves (see ratio_top).
+inline uint32_t fraction_q7_portable(uint32_t n, uint8_t d) {
+  const uint16_t n_over_2_8 = static_cast<uint16_t>((hi16(n) << 8) | (lo16(n) >> 8));
+  const uint32_t rest = static_cast<uint32_t>(static_cast<uint16_t>(lo16(n) << 6)) << 16;
+  return divide_steps_portable(static_cast<uint8_t>(n_over_2_8 >> 2), rest, d, 17);
+}
+inline uint32_t fraction_q7(uint32_t n, uint8_t d) {
+  const uint16_t n_over_2_8 = static_cast<uint16_t>((hi16(n) << 8) | (lo16(n) >> 8));
+  const uint32_t rest = static_cast<uint32_t>(static_cast<uint16_t>(lo16(n) << 6)) << 16;
+  return divide_steps(static_cast<uint8_t>(n_over_2_8 >> 2), rest, d, 17);
 }
 }  // namespace fixed_detail
 
@@ -876,6 +892,22 @@ inline Fixed ratio<Fixed>(uint32_t n, uint8_t d) {
   if (fixed_detail::hi16(n) >= 0x8000u || fixed_detail::ratio_top(n) >= d) return Fixed::max();  // also d == 0
   const uint32_t q = fixed_detail::ratio_q17(n, d);
   return Fixed::from_raw(static_cast<int32_t>((q >> 1) + (q & 1u)));
+}
+// n / (1024 d) in Q16.16, rounded half up: the mean of d 10-bit ADC samples as a fraction of full
+// scale. The quotient n 2^7 / d has 17 bits (a mean below 1024), so the division takes 17 steps
+// instead of ratio's 32, and the fraction is below 1: the multiply by vref that follows takes
+// mul_raw's short path (the mean in counts times vref / 1024 would take the long one). A mean of
+// 1024 or more (not a 10-bit ADC's): ratio, scaled.
+inline Fixed adc_fraction(uint32_t n, uint8_t d) {
+  using namespace fixed_detail;
+  if (d == 0 || hi16(n) >= 4u || static_cast<uint8_t>(static_cast<uint16_t>((hi16(n) << 8) | (lo16(n) >> 8)) >> 2) >= d)
+    return ratio<Fixed>(n, d) * Fixed::from_raw(64);  // 2^-10
+  const uint32_t q = fraction_q7(n, d);
+  return Fixed::from_raw(static_cast<int32_t>((q >> 1) + (q & 1u)));
+}
+template <>
+inline Fixed adc_volts<Fixed>(uint32_t n, uint8_t d, Fixed /*volts_per_count*/, Fixed vref) {
+  return adc_fraction(n, d) * vref;
 }
 // x / 2^31 for x <= 2^31 in Q16.16, rounded: x / 2^15 as (x / 2^16) 2 + bit 15, plus bit 14.
 template <>
