@@ -96,7 +96,9 @@ uint8_t self_check() {
   const int32_t edges[] = {0,          1,          -1,          INT32_C(65536), -INT32_C(65536),
                            INT32_MAX,  INT32_MIN,  INT32_C(0x7FFF8000),  INT32_C(181) * 65536,
                            INT32_C(-182) * 65536,  INT32_C(0x8000),      INT32_C(0x18000),
-                           INT32_C(-0x8000)};
+                           INT32_C(-0x8000),     INT32_C(0xFFFFFF),    INT32_C(-0xFFFFFF),
+                           INT32_C(0x1000000),   INT32_C(-0x1000000),  INT32_C(0x7FFFFF),
+                           INT32_C(-0x800000)};
   constexpr uint8_t kEdges = sizeof(edges) / sizeof(edges[0]);
   for (uint8_t i = 0; i < kEdges; ++i) {
     for (uint8_t j = 0; j < kEdges; ++j) {
@@ -127,6 +129,8 @@ uint8_t self_check() {
     const uint8_t d = static_cast<uint8_t>(b) != 0 ? static_cast<uint8_t>(b) : static_cast<uint8_t>(1);
     const uint32_t n = static_cast<uint32_t>(a) % (static_cast<uint32_t>(d) << 15);
     if (sma::fixed_detail::ratio_q17(n, d) != sma::fixed_detail::ratio_q17_portable(n, d)) ++mismatches;
+    const uint32_t n10 = static_cast<uint32_t>(a) % (static_cast<uint32_t>(d) << 10);  // a mean below 1024
+    if (sma::fixed_detail::fraction_q7(n10, d) != sma::fixed_detail::fraction_q7_portable(n10, d)) ++mismatches;
     const uint16_t x = static_cast<uint16_t>(a);
     const uint16_t y = static_cast<uint16_t>(b);
     if (sma::fixed_detail::mul16(x, y) != mul16_libgcc(x, y)) ++mismatches;

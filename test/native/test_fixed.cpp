@@ -595,6 +595,26 @@ TEST(FixedConversion, RatioOfCountsIsTheRoundedQuotient) {
   EXPECT_EQ(sma::ratio<Fixed>(84u * 512u + 513u, 85).raw(), static_cast<int32_t>(floor((84.0 * 512 + 513) * 65536 / 85 + 0.5)));
 }
 
+// The ADC mean as a fraction of full scale (fixed.hpp's adc_fraction, the Q16.16 board's volts):
+// n / (1024 d) against the exact rational, rounded half up, for every divisor over a 10-bit ADC's
+// whole range; past it (a mean >= 1024) within two LSB of the exact value.
+TEST(FixedConversion, AdcFractionIsTheRoundedQuotient) {
+  std::mt19937 rng(13);
+  for (unsigned d = 1; d < 256; ++d) {
+    for (int k = 0; k < 400; ++k) {
+      const uint32_t n = k == 0 ? 0u : k == 1 ? d * 1024u - 1u : static_cast<uint32_t>(rng() % (d * 1024u));
+      const double exact = static_cast<double>(n) * 64.0 / d;  // n / (1024 d) in LSB of 2^-16
+      ASSERT_EQ(sma::adc_fraction(n, static_cast<uint8_t>(d)).raw(), static_cast<int32_t>(floor(exact + 0.5)))
+          << n << " / (1024 " << d << ")";
+    }
+    const uint32_t big = d * 1024u + static_cast<uint32_t>(rng() % (d * 4096u));
+    EXPECT_NEAR(sma::adc_fraction(big, static_cast<uint8_t>(d)).raw(), static_cast<double>(big) * 64.0 / d, 2.0);
+  }
+  // Volts as the board computes them: 85 samples at 512 counts of a 5 V reference: 2.5 V.
+  EXPECT_EQ(sma::adc_volts<Fixed>(85u * 512u, 85, Fixed(5.0 / 1024), Fixed(5.0)), Fixed(2.5));
+  EXPECT_DOUBLE_EQ(sma::adc_volts<double>(85u * 512u, 85, 5.0 / 1024, 5.0), 2.5);
+}
+
 TEST(FixedConversion, PhaseAndCountsConversions) {
   // x / 2^31, rounded (ties up): the sine's folded phase.
   const uint32_t xs[] = {0u, 1u, 0x4000u, 0x8000u, 0xC000u, 0x40000000u, 0x7FFFFFFFu, 0x80000000u, 123456789u};

@@ -11,8 +11,9 @@
 // valid for the firmware; bench/avr_math checks it (results hash) and the AVR assembly paths.
 //
 // Measured in simavr (bench/avr_math, avr-g++ 5.4 -Os, cycles per call, float in brackets):
-// add 52 (112), mul 195 (130), div ~900 (467), cos_ramp ~350 (~2280), cos_ramp_inv ~700 (~2880),
-// cos ~710 (~1780), acos ~980 (~2470), sqrt ~610 (473), exp ~730 (~2110).
+// add 52 (112), mul 137 (130; magnitudes below 256 take the short path, see mul_raw), div ~900
+// (467), cos_ramp ~350 (~2280), cos_ramp_inv ~700 (~2880), cos ~710 (~1780), acos ~980 (~2470),
+// sqrt ~610 (473), exp ~730 (~2110).
 //
 // Range and resolution: [-32768, 32768 - 2^-16], LSB 2^-16 = 1.53e-5.
 //
@@ -417,12 +418,11 @@ inline int32_t mul_raw_portable(int32_t a, int32_t b) {
   return signed_saturated(m, negative);
 }
 
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
 // The same algorithm on the AVR, where it matters (see SMA_FIXED_AVR_PRODUCT_GRID): magnitudes,
 // the byte grid of the product, rounding and saturation in one block, with the sign kept in the
-// T flag. ~130 cycles including the call, ~70 when both magnitudes are below 256 (float:
-// ~130; the int64 version: ~250).
-inline int32_t mul_raw(int32_t a, int32_t b) {
-#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+// T flag. ~130 cycles including the call. The general case of mul_raw below.
+__attribute__((noinline)) inline int32_t mul_raw_general(int32_t a, int32_t b) {
   uint32_t ua = static_cast<uint32_t>(a);  // made |a| in place
   uint32_t ub = static_cast<uint32_t>(b);
   uint32_t r;      // product bytes 2..5: the result
@@ -509,10 +509,160 @@ inline int32_t mul_raw(int32_t a, int32_t b) {
       :
       : "r0");
   return as_signed(r);
-#else
-  return mul_raw_portable(a, b);
-#endif
 }
+
+// The Q16.16 multiply of the model's magnitudes (both below 256, i.e. 2^24 raw: temperatures,
+// volts, millimetres, the curves' fractions), in the registers the call brings them in: the
+// general version needs 16 registers for operands, product and carries, so it saves six and
+// moves both operands (~30 of its cycles). Here |a| and |b| are formed in place (r22..r25,
+// r18..r21); when both top bytes are zero, those two bytes serve as the zero and the byte-1
+// register, the nine products of the low bytes go to r26, r27, r30, r31 (all call-clobbered),
+// and nothing needs saving: ~75 cycles with the call. A product of bytes below 2^24 is below
+// 2^48 - 2^25, so the rounding cannot carry out of byte 5 and only the sign's range is tested.
+// Otherwise |a|, |b| are turned back into a, b and mul_raw_general does the whole grid.
+__attribute__((noinline)) inline int32_t mul_raw(int32_t a, int32_t b) {
+  register uint32_t ra __asm__("r22") = static_cast<uint32_t>(a);
+  register uint32_t rb __asm__("r18") = static_cast<uint32_t>(b);
+  register uint8_t general __asm__("r26");  // 1: the operands are a and b again, not in range
+  __asm__(
+      "mov  r26, %D[a]    \n\t"  // the signs, to undo the magnitudes on the general path
+      "mov  r27, %D[b]    \n\t"
+      "mov  r30, r26      \n\t"
+      "eor  r30, r27      \n\t"
+      "bst  r30, 7        \n\t"  // T = the result's sign
+      "sbrs %D[a], 7      \n\t"
+      "rjmp 1f            \n\t"
+      "com  %D[a]         \n\t"
+      "com  %C[a]         \n\t"
+      "com  %B[a]         \n\t"
+      "neg  %A[a]         \n\t"
+      "sbci %B[a], 0xFF   \n\t"
+      "sbci %C[a], 0xFF   \n\t"
+      "sbci %D[a], 0xFF   \n\t"
+      "1:                 \n\t"
+      "sbrs %D[b], 7      \n\t"
+      "rjmp 2f            \n\t"
+      "com  %D[b]         \n\t"
+      "com  %C[b]         \n\t"
+      "com  %B[b]         \n\t"
+      "neg  %A[b]         \n\t"
+      "sbci %B[b], 0xFF   \n\t"
+      "sbci %C[b], 0xFF   \n\t"
+      "sbci %D[b], 0xFF   \n\t"
+      "2:                 \n\t"
+      "mov  r30, %D[a]    \n\t"
+      "or   r30, %D[b]    \n\t"
+      "breq 11f           \n\t"
+      // Out of range: a and b back for the general version.
+      "sbrs r26, 7        \n\t"
+      "rjmp 8f            \n\t"
+      "com  %D[a]         \n\t"
+      "com  %C[a]         \n\t"
+      "com  %B[a]         \n\t"
+      "neg  %A[a]         \n\t"
+      "sbci %B[a], 0xFF   \n\t"
+      "sbci %C[a], 0xFF   \n\t"
+      "sbci %D[a], 0xFF   \n\t"
+      "8:                 \n\t"
+      "sbrs r27, 7        \n\t"
+      "rjmp 10f           \n\t"
+      "com  %D[b]         \n\t"
+      "com  %C[b]         \n\t"
+      "com  %B[b]         \n\t"
+      "neg  %A[b]         \n\t"
+      "sbci %B[b], 0xFF   \n\t"
+      "sbci %C[b], 0xFF   \n\t"
+      "sbci %D[b], 0xFF   \n\t"
+      "10:                \n\t"
+      "ldi  r26, 1        \n\t"
+      "rjmp 9f            \n\t"
+      "11:                \n\t"
+      // Top bytes zero: %D[a] is the zero byte, %D[b] byte 1; bytes 2..5 in r26, r27, r30, r31.
+      "mul  %A[a], %A[b]  \n\t"  // a0b0 @0
+      "mov  %D[b], r1     \n\t"
+      "mul  %B[a], %B[b]  \n\t"  // a1b1 @2
+      "movw r26, r0       \n\t"
+      "mul  %C[a], %C[b]  \n\t"  // a2b2 @4
+      "movw r30, r0       \n\t"
+      "mul  %A[a], %B[b]  \n\t"  // a0b1 @1 (bytes 0-3 hold a01*b01 < 2^32)
+      "add  %D[b], r0     \n\t"
+      "adc  r26, r1       \n\t"
+      "adc  r27, %D[a]    \n\t"
+      "mul  %B[a], %A[b]  \n\t"  // a1b0 @1
+      "add  %D[b], r0     \n\t"
+      "adc  r26, r1       \n\t"
+      "adc  r27, %D[a]    \n\t"
+      "mul  %A[a], %C[b]  \n\t"  // a0b2 @2
+      "add  r26, r0       \n\t"
+      "adc  r27, r1       \n\t"
+      "adc  r30, %D[a]    \n\t"
+      "adc  r31, %D[a]    \n\t"
+      "mul  %C[a], %A[b]  \n\t"  // a2b0 @2
+      "add  r26, r0       \n\t"
+      "adc  r27, r1       \n\t"
+      "adc  r30, %D[a]    \n\t"
+      "adc  r31, %D[a]    \n\t"
+      "mul  %B[a], %C[b]  \n\t"  // a1b2 @3
+      "add  r27, r0       \n\t"
+      "adc  r30, r1       \n\t"
+      "adc  r31, %D[a]    \n\t"
+      "mul  %C[a], %B[b]  \n\t"  // a2b1 @3
+      "add  r27, r0       \n\t"
+      "adc  r30, r1       \n\t"
+      "adc  r31, %D[a]    \n\t"
+      "clr  r1            \n\t"  // restore __zero_reg__
+      "lsl  %D[b]         \n\t"  // round on bit 15
+      "adc  r26, %D[a]    \n\t"
+      "adc  r27, %D[a]    \n\t"
+      "adc  r30, %D[a]    \n\t"
+      "adc  r31, %D[a]    \n\t"
+      "brts 3f            \n\t"
+      "sbrc r31, 7        \n\t"  // positive: the magnitude must be < 2^31
+      "rjmp 5f            \n\t"
+      "rjmp 4f            \n\t"
+      "3:                 \n\t"  // negative: -m, in range for m <= 2^31
+      "com  r31           \n\t"
+      "com  r30           \n\t"
+      "com  r27           \n\t"
+      "neg  r26           \n\t"
+      "sbci r27, 0xFF     \n\t"
+      "sbci r30, 0xFF     \n\t"
+      "sbci r31, 0xFF     \n\t"
+      "sbrc r31, 7        \n\t"
+      "rjmp 4f            \n\t"
+      "mov  %D[b], r26    \n\t"  // not negative: m == 0 (fine) or m > 2^31 (saturate)
+      "or   %D[b], r27    \n\t"
+      "or   %D[b], r30    \n\t"
+      "or   %D[b], r31    \n\t"
+      "breq 4f            \n\t"
+      "5:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
+      "clr  %A[a]         \n\t"
+      "clr  %B[a]         \n\t"
+      "clr  %C[a]         \n\t"
+      "clr  %D[a]         \n\t"
+      "bld  %D[a], 7      \n\t"
+      "brts 6f            \n\t"
+      "dec  %A[a]         \n\t"
+      "dec  %B[a]         \n\t"
+      "dec  %C[a]         \n\t"
+      "dec  %D[a]         \n\t"
+      "lsr  %D[a]         \n\t"
+      "rjmp 6f            \n\t"
+      "4:                 \n\t"
+      "movw %A[a], r26    \n\t"
+      "movw %C[a], r30    \n\t"
+      "6:                 \n\t"
+      "clr  r26           \n\t"
+      "9:                 \n\t"
+      : [a] "+r"(ra), [b] "+r"(rb), "=r"(general)
+      :
+      : "r0", "r27", "r30", "r31");
+  if (general != 0) return mul_raw_general(as_signed(ra), as_signed(rb));
+  return as_signed(ra);
+}
+#else
+inline int32_t mul_raw(int32_t a, int32_t b) { return mul_raw_portable(a, b); }
+#endif
 
 // Q16.16 quotient (a << 16) / b without a 64-bit dividend: restoring long division of
 // |a| * 2^17 (49 bits) by |b|, one quotient bit per step, 16 fraction bits plus a rounding bit.
@@ -668,12 +818,12 @@ inline uint16_t ratio_top(uint32_t n) {
 // n's low 15 bits at the top of a word (the dividend bits still to shift in), by a 16-bit shift
 // and a byte move.
 inline uint32_t ratio_rest(uint32_t n) { return static_cast<uint32_t>(static_cast<uint16_t>(lo16(n) << 1)) << 16; }
-// floor(n 2^17 / d) for n / 2^15 < d: the loop in C. Portable version; on the AVR the reference
-// bench/avr_math checks the assembly against (CTest avr_math_bench).
-inline uint32_t ratio_q17_portable(uint32_t n, uint8_t d) {
-  uint8_t r = static_cast<uint8_t>(ratio_top(n));
-  uint32_t q = ratio_rest(n);
-  for (uint8_t i = 0; i < 32; ++i) {
+// The restoring division by an 8-bit d: r < d the remainder so far, q the dividend bits still
+// to shift in (at its top); each of the `steps` steps shifts one of them into r and the quotient
+// bit into q's bottom. The loop in C. Portable version; on the AVR the reference bench/avr_math
+// checks the assembly against (CTest avr_math_bench).
+inline uint32_t divide_steps_portable(uint8_t r, uint32_t q, uint8_t d, uint8_t steps) {
+  for (uint8_t i = 0; i < steps; ++i) {
     const uint16_t r2 = static_cast<uint16_t>((r << 1) | ((q & kHalfQ32) != 0 ? 1u : 0u));
     q <<= 1;
     if (r2 >= d) {
@@ -685,11 +835,8 @@ inline uint32_t ratio_q17_portable(uint32_t n, uint8_t d) {
   }
   return q;
 }
-inline uint32_t ratio_q17(uint32_t n, uint8_t d) {
+inline uint32_t divide_steps(uint8_t r, uint32_t q, uint8_t d, uint8_t steps) {
 #if defined(__AVR__)
-  uint8_t r = static_cast<uint8_t>(ratio_top(n));  // n / 2^15 < d <= 255
-  uint32_t q = ratio_rest(n);  // n's 15 low bits, then the quotient's
-  uint8_t count = 32;
   __asm__(
       "1:                 \n\t"
       "lsl  %A[q]         \n\t"
@@ -706,12 +853,31 @@ inline uint32_t ratio_q17(uint32_t n, uint8_t d) {
       "3:                 \n\t"
       "dec  %[c]          \n\t"
       "brne 1b            \n\t"
-      : [q] "+r"(q), [r] "+r"(r), [c] "+r"(count)
+      : [q] "+r"(q), [r] "+r"(r), [c] "+r"(steps)
       : [d] "r"(d));
   return q;
 #else
-  return ratio_q17_portable(n, d);
+  return divide_steps_portable(r, q, d, steps);
 #endif
+}
+// floor(n 2^17 / d) for n / 2^15 < d: n's top bits start the remainder, 32 steps.
+inline uint32_t ratio_q17_portable(uint32_t n, uint8_t d) {
+  return divide_steps_portable(static_cast<uint8_t>(ratio_top(n)), ratio_rest(n), d, 32);
+}
+inline uint32_t ratio_q17(uint32_t n, uint8_t d) {
+  return divide_steps(static_cast<uint8_t>(ratio_top(n)), ratio_rest(n), d, 32);
+}
+// floor(n 2^7 / d) for n / 2^10 < d (a mean below 1024): n / 2^10 starts the remainder, n's low
+// 10 bits and 7 zeros follow: 17 steps. The shifts by 16-bit halves (see ratio_top).
+inline uint32_t fraction_q7_portable(uint32_t n, uint8_t d) {
+  const uint16_t n_over_2_8 = static_cast<uint16_t>((hi16(n) << 8) | (lo16(n) >> 8));
+  const uint32_t rest = static_cast<uint32_t>(static_cast<uint16_t>(lo16(n) << 6)) << 16;
+  return divide_steps_portable(static_cast<uint8_t>(n_over_2_8 >> 2), rest, d, 17);
+}
+inline uint32_t fraction_q7(uint32_t n, uint8_t d) {
+  const uint16_t n_over_2_8 = static_cast<uint16_t>((hi16(n) << 8) | (lo16(n) >> 8));
+  const uint32_t rest = static_cast<uint32_t>(static_cast<uint16_t>(lo16(n) << 6)) << 16;
+  return divide_steps(static_cast<uint8_t>(n_over_2_8 >> 2), rest, d, 17);
 }
 }  // namespace fixed_detail
 
@@ -726,6 +892,22 @@ inline Fixed ratio<Fixed>(uint32_t n, uint8_t d) {
   if (fixed_detail::hi16(n) >= 0x8000u || fixed_detail::ratio_top(n) >= d) return Fixed::max();  // also d == 0
   const uint32_t q = fixed_detail::ratio_q17(n, d);
   return Fixed::from_raw(static_cast<int32_t>((q >> 1) + (q & 1u)));
+}
+// n / (1024 d) in Q16.16, rounded half up: the mean of d 10-bit ADC samples as a fraction of full
+// scale. The quotient n 2^7 / d has 17 bits (a mean below 1024), so the division takes 17 steps
+// instead of ratio's 32, and the fraction is below 1: the multiply by vref that follows takes
+// mul_raw's short path (the mean in counts times vref / 1024 would take the long one). A mean of
+// 1024 or more (not a 10-bit ADC's): ratio, scaled.
+inline Fixed adc_fraction(uint32_t n, uint8_t d) {
+  using namespace fixed_detail;
+  if (d == 0 || hi16(n) >= 4u || static_cast<uint8_t>(static_cast<uint16_t>((hi16(n) << 8) | (lo16(n) >> 8)) >> 2) >= d)
+    return ratio<Fixed>(n, d) * Fixed::from_raw(64);  // 2^-10
+  const uint32_t q = fraction_q7(n, d);
+  return Fixed::from_raw(static_cast<int32_t>((q >> 1) + (q & 1u)));
+}
+template <>
+inline Fixed adc_volts<Fixed>(uint32_t n, uint8_t d, Fixed /*volts_per_count*/, Fixed vref) {
+  return adc_fraction(n, d) * vref;
 }
 // x / 2^31 for x <= 2^31 in Q16.16, rounded: x / 2^15 as (x / 2^16) 2 + bit 15, plus bit 14.
 template <>

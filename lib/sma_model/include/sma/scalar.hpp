@@ -120,6 +120,15 @@ template <class T> inline double to_double(T x) { return static_cast<double>(x);
 // integer): the tick's numbers start and end as integers (ADC counts, ticks, PWM counts).
 // n / d, d > 0: the mean of a tick's ADC samples (sum n of d samples).
 template <class T> inline T ratio(uint32_t n, uint8_t d) { return static_cast<T>(n) / static_cast<T>(d); }
+// sqrt(x) for x > 0 where a constant must fold at compile time (Newton's iteration from 1).
+constexpr double sqrt_constexpr(double x, double r = 1.0, int n = 0) {
+  return n == 40 ? r : sqrt_constexpr(x, 0.5 * (r + x / r), n + 1);
+}
+// The mean of d 10-bit ADC samples (sum n) in volts: n / d volts_per_count, volts_per_count =
+// vref / 1024 (fixed.hpp's Q16.16 divides by 1024 d instead and scales by vref).
+template <class T> inline T adc_volts(uint32_t n, uint8_t d, T volts_per_count, T /*vref*/) {
+  return ratio<T>(n, d) * volts_per_count;
+}
 // x / 2^31 for x <= 2^31: a phase in Q1.31 (ReferenceGen's sine).
 template <class T> inline T from_q31(uint32_t x) { return static_cast<T>(static_cast<double>(x) * (1.0 / 2147483648.0)); }
 // floor(x) for 0 <= x < 65536 (PWM counts).
