@@ -189,14 +189,19 @@ static SMA_STORAGE_TABLE CommandRow kCommandRows[] = {
 };
 constexpr uint8_t kCommandCount = sizeof(kCommandRows) / sizeof(kCommandRows[0]);
 
-inline CommandRow command_row(uint8_t r) {
-  CommandRow row;
+// Row r of the table into `row` (by reference: a 6-byte struct returned in registers cost ~15 B
+// of moves at every call on the AVR).
+SMA_TABLE_NOINLINE inline void command_row(uint8_t r, CommandRow& row) {
 #if defined(__AVR__)
   memcpy_P(&row, &kCommandRows[r], sizeof(CommandRow));
 #else
   row = kCommandRows[r];
 #endif
-  return row;
+}
+inline uint8_t row_props(uint8_t r) {
+  CommandRow row;
+  command_row(r, row);
+  return row.props;
 }
 inline double arg_bound(uint8_t arg, uint8_t hi, const Limits& lim) {
   // (The two limits by their argument, not by the table's -1/-2: byte compares, not float ones.)
@@ -216,6 +221,11 @@ inline bool row_exists(const CommandRow& row, const Limits& lim) {
   if (preview_row && !lim.preview) return false;
 #endif
   return !((row.props & kModelCmd) && !lim.model) && !((row.props & kTrainCmd) && !lim.train);
+}
+inline bool row_exists(uint8_t r, const Limits& lim) {
+  CommandRow row;
+  command_row(r, row);
+  return row_exists(row, lim);
 }
 // Word n of a flash list equals tok[0..len)?
 inline bool word_is(const char* list_f, uint8_t n, const char* tok, uint8_t len) {
@@ -243,7 +253,8 @@ inline void put_help(Reply& reply, const Limits& lim) {
   const char* s = command_subs();   // keyword of row r
   bool first = true;
   for (uint8_t r = 0; r < kCommandCount; ++r) {
-    const CommandRow row = command_row(r);
+    CommandRow row;
+    command_row(r, row);
     const bool sub = flash_char(s) != '-';
     if (row_exists(row, lim) && !(row.props & kSameWord)) {
       if (!first) reply.put('|');
@@ -283,7 +294,7 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
     return true;
   }
   uint8_t r = 0;
-  while (r < kCommandCount && !(row_exists(command_row(r), lim) && word_is(command_words(), r, t0, len0))) ++r;
+  while (r < kCommandCount && !(row_exists(r, lim) && word_is(command_words(), r, t0, len0))) ++r;
   if (r == kCommandCount) {
     reply.clear();
     reply.put_f(SMA_F("ERR unknown command '"));
@@ -309,24 +320,25 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
   const char* save = p;
   const char* tok = next_token(p, len);
   uint8_t last = first;
-  while (last + 1 < kCommandCount && (command_row(static_cast<uint8_t>(last + 1)).props & kSameWord)) ++last;
+  while (last + 1 < kCommandCount && (row_props(static_cast<uint8_t>(last + 1)) & kSameWord)) ++last;
   if (last > first) {  // keywords: `mode open`, `tele on`, `traj clear` ...
     r = first;
     while (r <= last && has_sub(r) && !word_is(command_subs(), r, tok, len)) ++r;
     // (A keyword row that does not exist in this build is not a keyword: `mode preview`.)
-    if (r > last || (len == 0 && !has_sub(r)) || (SMA_CONSOLE_PREVIEW && !row_exists(command_row(r), lim))) {
+    if (r > last || (len == 0 && !has_sub(r)) || (SMA_CONSOLE_PREVIEW && !row_exists(r, lim))) {
       // "expected a, b or <t_s> <mm>"
-      while (SMA_CONSOLE_PREVIEW && !row_exists(command_row(last), lim)) --last;  // (the word's first row exists)
+      while (SMA_CONSOLE_PREVIEW && !row_exists(last, lim)) --last;  // (the word's first row exists)
       err_head();
       reply.put_f(SMA_F("expected "));
       for (uint8_t k = first; k <= last; ++k) {
-        if (SMA_CONSOLE_PREVIEW && !row_exists(command_row(k), lim)) continue;
+        if (SMA_CONSOLE_PREVIEW && !row_exists(k, lim)) continue;
         if (k > first) reply.put_f(k == last ? SMA_F(" or ") : SMA_F(", "));
         if (has_sub(k)) {
           storage::detail::put_word(reply, command_subs(), k);
           continue;
         }
-        const CommandRow row = command_row(k);
+        CommandRow row;
+        command_row(k, row);
         for (uint8_t a = 0; a < 3 && row.args[a] != kNoArg; ++a) {
           if (a > 0) reply.put(' ');
           reply.put('<');
@@ -340,7 +352,8 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
   } else {
     p = save;
   }
-  const CommandRow row = command_row(r);
+  CommandRow row;
+  command_row(r, row);
   c.op = row.op;
   c.row = r;
   c.props = row.props;
