@@ -10,7 +10,8 @@ scored period is the second: sma_metrics drops the first), and the multi-step's 
 and the 0.8 -> 0.5 mm down-step). Metrics of sma_metrics on the measured position, whole run with the
 falling phase (issue 13). Pass: sine max <= 0.12 mm, RMS <= 0.05 mm, falling max <= 0.12 mm, each
 below inverse + PID's; steps RMS <= 0.05 mm and below inverse + PID's, falling max below it,
-wrong-way <= 0.03 mm. Prints the table and writes DIR/fil_preview.json.
+wrong-way <= 0.03 mm; the preview's control section <= 16000 cycles in both. Prints the table
+and writes DIR/fil_preview.json.
 """
 import argparse
 import concurrent.futures
@@ -90,6 +91,10 @@ def main():
         ("steps wrong-way <= 0.03 mm", p["wrong_way_mm"] <= 0.03),
         # Past a held setpoint away from the next one (the minor-loop rise before a down-step).
         ("steps wrong-way before a step <= 0.03 mm", p["wrong_way_before_mm"] <= 0.03),
+        # The preview's tick within the one-image budget (issue 12: <= 16000 cycles float), on
+        # the Mega image (3-byte calls: slower than the Uno on the same code).
+        ("sine control section <= 16000 cycles", s["cycles"]["control_cycles_max"] <= 16000),
+        ("steps control section <= 16000 cycles", p["cycles"]["control_cycles_max"] <= 16000),
     ]
     bad = [n for n, ok in checks if not ok]
     for n, ok in checks:

@@ -215,6 +215,7 @@ class Board {
     live_.x.temp_C = to_double(wire_temperature());
     live_.x.fault = safety_.x.fault();
     ctl().prepare_next_tick();  // a reversal's loop ahead of its tick (Controller)
+    if (preview_on()) preview().prepare_next_tick();  // the preview's model wire, likewise
     if (state_.s.tele) {
       if (v_.x.header_due_ && !state_.s.plot) {
         reply_.x.clear();

@@ -209,6 +209,8 @@ class PreviewCore {
 
   // Restart at rest: wire at T0 with fraction eps0 (e.g. from a measurement), heating branch.
   SMA_PREVIEW_NOINLINE void reset(T T0, T eps0) {
+    wire_pending_ = false;
+    sample_due_ = false;
     est_.reset(T0, eps0);
     T_est_ = T0;
     T_prev_ = T0;
@@ -222,6 +224,7 @@ class PreviewCore {
     have_ref_ = false;
     v_ = T(0);
     lead_ready_ = false;
+    voltages_ready_ = false;
     down_next_ = false;
     restart_plan();
   }
@@ -235,6 +238,7 @@ class PreviewCore {
   void new_reference() {
     have_ref_ = false;
     lead_ready_ = false;
+    voltages_ready_ = false;
     switch_due_ = 0;
     down_next_ = false;
     restart_plan();
@@ -250,35 +254,61 @@ class PreviewCore {
   // measured displacement -> voltage across the wire, 0..V_max. NaN in gives 0 V.
   template <class Future>
   T step(T ref, const Future& future, T measured) {
+    prepare_next_tick();  // a caller that did not call it between ticks
     if (!valid_ || !is_finite(ref) || !is_finite(measured)) return hold_off();
     ref = clamp(ref, T(0), mech_.g);
     ref_now_ = ref;
     // Integral action: the offset between the wire and the model wire.
     d_ = d_ + d_alpha_ * ((measured - mech_.displacement(eps_est_)) - d_);
-    if (observing() && ++observe_tick_ >= kObserveTicks) take_heat_sample(measured);
+    if (observing() && ++observe_tick_ >= kObserveTicks) {
+      // A heat-loss sample: the tick keeps what it saw, prepare_next_tick() judges it.
+      observe_tick_ = 0;
+      sample_due_ = true;
+      due_x_ = measured;
+      due_T_ = T_est_;
+      due_T_prev_ = T_prev_;
+    }
     follow_reference(ref);
     if (switch_due_ > 0 && --switch_due_ == 0) switch_branch();
     ++elapsed_ticks_;
     if (plan_in_step_)
       for (uint8_t k = 0; k < steps_per_tick_; ++k)
         if (plan_step(future)) break;
-    // The commanded temperature: this branch's inverse of the reference track_s ahead.
-    // (Planning between ticks, plan_step() has already sampled it for this tick: no reference
-    // evaluation left in the tick.)
-    T r_lead = lead_ready_ && !plan_in_step_ ? lead_ : future(track_);
+    // The voltage: this branch's inverse of the reference track_s ahead. Planning between
+    // ticks, plan_step() has computed it for both branches already (prepare_voltages: no
+    // reference and no inverse left in the tick), unless the hold's verdict changed since.
+    T v;
+    if (voltages_ready_ && !plan_in_step_ && cap_on_ == pre_cap_on_ && cap_ref_ == pre_cap_ref_ &&
+        cap_T_ == pre_cap_T_) {
+      v = v_branch_[heating_ ? 1 : 0];
+    } else {
+      T r_lead = lead_ready_ && !plan_in_step_ ? lead_ : future(track_);
+      if (!is_finite(r_lead)) r_lead = ref;
+      v = branch_voltage(heating_, clamp(r_lead, T(0), mech_.g));
+    }
     lead_ready_ = false;
-    if (!is_finite(r_lead)) r_lead = ref;
-    const T T_cmd = branch_temperature(heating_, est_, T_est_, clamp(r_lead, T(0), mech_.g));
-    const T slope = (T_cmd - T_est_) * inv_track_;
-    // Eq 17, with the observed heat loss: k^ G (T - T_a) = G (T - T_a) + C (extra slope).
-    const T extra = observing() ? heat_.loss_correction() * inv_dt_ * (T_est_ - thermal_.T_a) : T(0);
-    T v = min(thermal_.voltage_for(T_est_, slope + extra, eps_est_, deps_), v_max_);
-    if (!is_finite(v)) v = T(0);
-    if (!heating_ && pwm_top_ > 0 && T_est_ > est_.loop().T_MSi) v = pwm_level_below(v);  // loop(): prepared above
+    voltages_ready_ = false;
     v_ = v;
-    // The model wire follows the commanded voltage.
-    model_wire_step(v);
+    // The model wire's temperature follows the commanded voltage now (the latch watches it);
+    // its hysteresis after the output is written (prepare_next_tick).
+    model_wire_heat(v, deps_);
+    wire_pending_ = true;
     return v_;
+  }
+
+  // Between ticks, after the output is written: the model wire's hysteresis on the tick's
+  // temperature, and the cooling loop the next tick would build (a reversal of the reference
+  // on the heating branch; the loop in use on the cooling branch): work the next tick would
+  // otherwise do inside the control section. Changes no number; step() and plan_step() call it
+  // first if the caller did not.
+  SMA_PREVIEW_NOINLINE void prepare_next_tick() {
+    if (SMA_PREVIEW_HEAT_LOSS && sample_due_) take_heat_sample();  // before the hysteresis moves on
+    if (!wire_pending_) return;
+    wire_pending_ = false;
+    const T eps_new = est_.update(T_est_);
+    deps_ = (eps_new - eps_est_) * inv_dt_;
+    eps_est_ = eps_new;
+    est_.prepare_cooling();
   }
 
   // One grid step of the plan in progress (bounded work: one thermal step, one hysteresis
@@ -291,12 +321,14 @@ class PreviewCore {
   template <class Future>
   bool plan_step(const Future& future) {
     if (!valid_) return false;
+    prepare_next_tick();
     if (!plan_in_step_ && !lead_ready_) {  // first call after a tick: the next tick's lead sample (track_s ahead)
       lead_ = future(track_next_);
       lead_ready_ = true;
       // A heat-loss sample of the last tick with it (a lead sample is cheap; the grid steps of
       // the other calls keep their pace).
       if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();
+      prepare_voltages();
       return false;
     }
     if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();  // in-step planning
@@ -304,9 +336,13 @@ class PreviewCore {
     // tick: the switch builds the loop).
     if (heating_ && capped(ref_now_) && at_cap(T_est_)) {
       switch_branch();
+      if (lead_ready_) prepare_voltages();
       return false;
     }
-    if (j_ >= n_grid_ && next_candidate()) return true;
+    if (j_ >= n_grid_ && next_candidate()) {
+      if (lead_ready_) prepare_voltages();  // the new plan's verdict on the hold
+      return true;
+    }
     sim_step(future);
     return false;
   }
@@ -328,6 +364,34 @@ class PreviewCore {
 
   bool observing() const { return SMA_PREVIEW_HEAT_LOSS && observe_heat_; }
 
+  // The voltage that drives the model wire onto branch heat's temperature for lead reference r
+  // (mm): eq 15 or 16 (branch_temperature), then eq 17 with the first-order pull track_s.
+  SMA_PREVIEW_NOINLINE T branch_voltage(bool heat, T r) {
+    const T T_cmd = branch_temperature(heat, est_, T_est_, r);
+    const T slope = (T_cmd - T_est_) * inv_track_;
+    // Eq 17, with the observed heat loss: k^ G (T - T_a) = G (T - T_a) + C (extra slope).
+    const T extra = observing() ? heat_.loss_correction() * inv_dt_ * (T_est_ - thermal_.T_a) : T(0);
+    T v = min(thermal_.voltage_for(T_est_, slope + extra, eps_est_, deps_), v_max_);
+    if (!is_finite(v)) v = T(0);
+    if (!heat && pwm_top_ > 0 && T_est_ > est_.loop().T_MSi) v = pwm_level_below(v);  // loop(): prepared above
+    return v;
+  }
+
+  // Between ticks, after the lead sample: the next tick's voltage on either branch (it may
+  // switch when the reference turns), on the model wire the tick will start from and the offset
+  // of the last tick (a tick older than in the tick itself: 10 ms against its offset_tau_s).
+  void prepare_voltages() {
+    voltages_ready_ = false;
+    if (!is_finite(lead_)) return;  // the tick falls back on its reference now
+    const T r = clamp(lead_, T(0), mech_.g);
+    v_branch_[0] = branch_voltage(false, r);
+    v_branch_[1] = branch_voltage(true, r);
+    pre_cap_on_ = cap_on_;
+    pre_cap_ref_ = cap_ref_;
+    pre_cap_T_ = cap_T_;
+    voltages_ready_ = true;
+  }
+
   // One tick of the model wire's temperature under voltage v (eq 1, with the observed heat loss
   // k^ G) and of the observer's sensitivity along it.
   void model_wire_heat(T v, T deps) {
@@ -338,14 +402,6 @@ class PreviewCore {
       heat_.tick(next - thermal_.T_a);
     }
     T_est_ = next;
-  }
-
-  // The same with the model wire's hysteresis.
-  void model_wire_step(T v) {
-    model_wire_heat(v, deps_);
-    const T eps_new = est_.update(T_est_);
-    deps_ = (eps_new - eps_est_) * inv_dt_;
-    eps_est_ = eps_new;
   }
 
   // The highest PWM level at or below v (the heater's duty = (V / v_supply)^2). A hundredth of
@@ -365,10 +421,11 @@ class PreviewCore {
     return mech_.g * (curves_.eps_heat(Tw + T(0.5)) - curves_.eps_heat(Tw - T(0.5)));
   }
 
-  // The tick's part of a heat-loss sample (cheap): is this a sample, and what it saw. The rest
-  // (curves, regression, re-anchoring) runs in plan_step(), between ticks on a board.
-  void take_heat_sample(T measured) {
-    observe_tick_ = 0;
+  // The first part of a heat-loss sample the tick took (due_x_, due_T_then_; cheap, between
+  // ticks on a board, on the tick's model wire fraction): is it a sample. The rest (curves,
+  // regression, re-anchoring) runs in plan_step().
+  void take_heat_sample() {
+    sample_due_ = false;
     const T x_model = mech_.displacement(eps_est_);
     const T x_wire = x_model + d_;  // the measurement low-passed (the offset estimate's filter)
     const bool rising = x_wire - obs_meas_ > T(0.001) && x_model - obs_model_ > T(0.001);
@@ -379,10 +436,10 @@ class PreviewCore {
     // each wire reversed.)
     if (!rising || !est_.heating()) return;
     obs_pending_ = true;
-    obs_x_ = measured;
+    obs_x_ = due_x_;
     // The measurement sees the commands of heat_gain_lag_ticks ago: the model wire as it was
     // then (first order in its last step), else a heating transient reads as a gap.
-    obs_T_then_ = T_est_ - lag_ticks_ * (T_est_ - T_prev_);
+    obs_T_then_ = due_T_ - lag_ticks_ * (due_T_ - due_T_prev_);
   }
 
   // One sample of the heat-loss observer: the wire's temperature the measured position gives on
@@ -631,6 +688,8 @@ class PreviewCore {
   uint8_t observe_tick_ = 0;
   T obs_meas_ = T(0), obs_model_ = T(0);  // positions at the observer's last sample
   bool obs_pending_ = false;              // a sample waits for plan_step()
+  bool sample_due_ = false;               // the tick took a sample: prepare_next_tick() judges it
+  T due_x_ = T(0), due_T_ = T(0), due_T_prev_ = T(0);  // its measurement, the model wire then and before
   T obs_x_ = T(0), obs_T_then_ = T(0);    // its measurement and model wire temperature
   T lag_ticks_;
   double far_step_s_;  // lookahead_s / kFar
@@ -661,6 +720,13 @@ class PreviewCore {
   // The reference track_s after the next tick, sampled between ticks by plan_step().
   T lead_ = T(0);
   bool lead_ready_ = false;
+  bool wire_pending_ = false;  // the model wire's hysteresis waits for prepare_next_tick()
+  // The next tick's voltage on the cooling [0] and heating [1] branch (prepare_voltages), and
+  // the hold's verdict it was computed with.
+  T v_branch_[2];
+  bool voltages_ready_ = false;
+  bool pre_cap_on_ = false;
+  T pre_cap_ref_ = T(0), pre_cap_T_ = T(0);
 };
 
 // The models a stand-alone preview controller owns (a base: built before PreviewCore).
@@ -693,6 +759,7 @@ class PreviewSlot {
   void set_cool_weight(double) {}
   template <class Future>
   T step(T, const Future&, T) { return T(0); }
+  void prepare_next_tick() {}
   template <class Future>
   bool plan_step(const Future&) { return false; }
   T wire_temperature() const { return T(0); }
@@ -712,6 +779,7 @@ class PreviewSlot<T, true> {
   void set_cool_weight(double w) { u_.c.set_cool_weight(w); }
   template <class Future>
   T step(T ref, const Future& future, T measured) { return u_.c.step(ref, future, measured); }
+  void prepare_next_tick() { u_.c.prepare_next_tick(); }
   template <class Future>
   bool plan_step(const Future& future) { return u_.c.plan_step(future); }
   T wire_temperature() const { return u_.c.wire_temperature(); }
