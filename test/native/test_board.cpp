@@ -23,27 +23,7 @@ struct TestRig : BoardTestRig {
 typedef BoardTestIo Io;
 typedef sma::Board<float, TestRig, Io> TestBoard;
 
-struct Bench {
-  uint8_t ee[1024];
-  std::vector<std::string> lines;
-  TestBoard* b;
-  Bench() {
-    memset(ee, 0xFF, sizeof ee);
-    b = new TestBoard(Io{ee, &lines});
-    b->boot(false, "# ready");
-  }
-  ~Bench() { delete b; }
-  // A line in, its reply out.
-  std::string cmd(const std::string& s) {
-    lines.clear();
-    for (char c : s + "\n") {
-      if (!b->rx(c)) continue;
-      b->handle_line();
-      if (b->model_pending()) b->run_model_op();
-      b->poll();
-    }
-    return lines.empty() ? "" : lines.back();
-  }
+struct Bench : BoardTestBench<TestBoard> {
   // One tick with the sensor reading `mm` (the rig's calibration inverted to ADC counts).
   uint16_t tick(double mm) {
     const double v = (mm - TestRig::sensor_offset_mm()) / TestRig::sensor_mm_per_v();

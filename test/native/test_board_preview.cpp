@@ -22,14 +22,12 @@ struct Rig : BoardTestRig {
   static constexpr bool preview() { return Preview; }
 };
 
-typedef BoardTestIo Io;
-
 template <bool Preview>
-struct Bench {
-  typedef sma::Board<float, Rig<Preview>, Io> B;
-  uint8_t ee[1024];
-  std::vector<std::string> lines;
-  B* b;
+struct Bench : BoardTestBench<sma::Board<float, Rig<Preview>, BoardTestIo> > {
+  typedef BoardTestBench<sma::Board<float, Rig<Preview>, BoardTestIo> > Base;
+  using Base::b;
+  using Base::cmd;
+  using Base::lines;
   sma::Plant plant;  // the wire, continued by successive run() calls
   double temp_gap_C = 0;  // largest |wire temperature estimate (the latch's) - true temperature|
   static sma::RigOptions rig_like() {
@@ -37,21 +35,7 @@ struct Bench {
     o.noise_mm = 0.002;
     return o;
   }
-  Bench() : plant(sma::Params(), sma::Effects(), rig_like()) {
-    memset(ee, 0xFF, sizeof ee);
-    b = new B(Io{ee, &lines});
-    b->boot(false, "# ready");
-  }
-  ~Bench() { delete b; }
-  std::string cmd(const std::string& s) {
-    lines.clear();
-    for (char c : s + "\n") {
-      if (!b->rx(c)) continue;
-      b->handle_line();
-      b->poll();
-    }
-    return lines.empty() ? "" : lines.back();
-  }
+  Bench() : plant(sma::Params(), sma::Effects(), rig_like()) {}
   // Runs `command` for `seconds` on a rig-like wire (2 um noise, the board's 10-bit ADC averaged
   // over 96 samples, its PWM), `idle_plans` plan() calls between ticks; the true position.
   std::vector<sma_host::Sample> run(const std::string& command, double seconds, int idle_plans) {
