@@ -479,12 +479,16 @@ class Board {
   static void initial_safety(SafetyLatch<T>* s) { new (s) SafetyLatch<T>(safety_config()); }
 #endif
 
-  // The console's initial state: on AVR a copy of a constant in flash (constructed in place, its
-  // ~250 bytes of defaults cost a store each: ~1 KB of the static constructor).
+  // The console's initial state: on AVR zeroes, and copies of the constants in flash with
+  // non-zero defaults (constructed in place, its ~250 bytes of defaults cost a store each: ~1 KB
+  // of the static constructor; copied whole, the trajectory's zero points took 129 B of flash).
 #if defined(__AVR__)
   static SMA_NOINLINE void initial_state(console::State* s) {
-    static const console::State kState PROGMEM = console::State();
-    memcpy_P(s, &kState, sizeof(console::State));
+    static const console::Settings kSettings PROGMEM = console::Settings();
+    static constexpr RefShape kShape PROGMEM = console::trajectory_shape();
+    memset(static_cast<void*>(s), 0, sizeof(console::State));
+    memcpy_P(static_cast<console::Settings*>(s), &kSettings, sizeof(console::Settings));
+    memcpy_P(static_cast<RefShape*>(&s->traj), &kShape, sizeof(RefShape));
   }
 #else
   static void initial_state(console::State* s) { new (s) console::State(); }

@@ -69,7 +69,8 @@ class PhaseCurves {
   }
 
   // Eq 2: austenite fraction on the major heating curve.
-  T eps_heat(T Tw) const { return cos_ramp((Tw - T_AS_) * inv_width_A_); }
+  // (Out of line: one copy for the walker's heating, its reversals and eq 10, flash on the Uno.)
+  __attribute__((noinline)) T eps_heat(T Tw) const { return cos_ramp((Tw - T_AS_) * inv_width_A_); }
 
   // Eq 15: the temperature on the major heating curve for a fraction eps (clamped to 0..1).
   T heat_temperature(T eps) const { return T_AS_ + width_A_ * cos_ramp_inv(eps); }

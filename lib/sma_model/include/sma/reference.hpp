@@ -17,7 +17,9 @@ constexpr uint8_t kMaxPoints = 16;
 
 enum class RefKind : uint8_t { Constant, MultiStep, Sine, Trajectory };
 
-struct Reference {
+// A reference's kind and the settings of the paper's tests (no trajectory points): the part
+// with non-zero defaults (the board copies it from flash, the points it only zeroes).
+struct RefShape {
   RefKind kind = RefKind::Constant;
   double constant_mm = 0.0;
   // Multi-step.
@@ -27,7 +29,10 @@ struct Reference {
   // Sine.
   double sine_lo_mm = 0.2, sine_hi_mm = 0.7, sine_period_s = 50.0;
   double sine_cycles = 3.0;  // length of the run, in periods
-  // Trajectory.
+};
+
+struct Reference : RefShape {
+  // Trajectory (all zero by default).
   double point_t[kMaxPoints] = {};
   double point_mm[kMaxPoints] = {};
   uint8_t n_points = 0;

@@ -70,7 +70,8 @@ struct Thermal {
 
  private:
   // The voltage that puts `power` into the wire at fraction eps; 0 for no power (or NaN).
-  T voltage_at(T power, T eps) const {
+  // (Out of line: one copy for the feedforward's eq 17 and V_hold, flash on the Uno.)
+  __attribute__((noinline)) T voltage_at(T power, T eps) const {
     if (!(power > T(0))) return T(0);
     const T r = plain ? R : R * (T(1) + k_R * eps);
     return sqrt(r * power);

@@ -68,8 +68,9 @@ struct Limits {
   bool single = false;  // numbers in float arithmetic (sma::Board: as on the AVR)
 };
 
-// What the console controls. The firmware applies it to the controller and the safety latch.
-struct State {
+// What the console controls but the trajectory (State): with trajectory_shape(), the part with
+// non-zero defaults, constants the board copies from flash (the points it only zeroes).
+struct Settings {
   Mode mode = Mode::FeedforwardPid;  // selected controller (never Off; `stop` clears heat)
 #if SMA_CONSOLE_PREVIEW
   Mode loop_mode = Mode::FeedforwardPid;  // the controller a reference starts after open loop
@@ -87,9 +88,20 @@ struct State {
   bool plot = false;  // telemetry as Teleplot lines (tele plot) instead of rig-log rows (tele on)
   RefKind run_kind = RefKind::Constant;  // the reference being run (reference())
   double pos_mm = 0.0;                    // its setpoint if constant
-  Reference traj = {RefKind::Trajectory};  // trajectory points (edited by traj, run by traj run)
   uint16_t run = 0;  // incremented at every (re)start of a reference: restart its clock
   bool training = false;  // the training signal is playing (train), open loop
+};
+
+// The shape part of State::traj: the paper's step and sine, the kind Trajectory.
+constexpr RefShape trajectory_shape() {
+  RefShape r{};
+  r.kind = RefKind::Trajectory;
+  return r;
+}
+
+// What the console controls. The firmware applies it to the controller and the safety latch.
+struct State : Settings {
+  Reference traj = trajectory();  // trajectory points (edited by traj, run by traj run)
 
   // The reference being run (a trajectory as it was at `traj run`: the firmware copies it into
   // its generator then, so editing the points does not disturb a running trajectory).
