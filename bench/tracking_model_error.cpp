@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 #include "sma/console.hpp"
+#include "sma_host/e2e_wire.hpp"
 #include "sma_host/metrics.hpp"
 #include "sma_host/plant_b_rig.hpp"
 #include "sma_host/progress.hpp"
@@ -65,21 +66,8 @@ std::vector<Case> cases() {
   m.g *= 1.03;
   out.push_back({"model g +3 %", m, {}, {}, false});
   out.push_back({"plant B (literal) as the wire", p, {}, {}, true});
-  // The e2e flow's wire and its fit without the hidden effect (docs/flow.md: h 219, T_AS 55.8,
-  // T_AF 88.8, g 0.997, bent to absorb the loss that grows faster than linearly).
-  sma::Params e2e_wire = p;
-  e2e_wire.T_AS = 54.0;
-  e2e_wire.T_AF = 84.0;
-  e2e_wire.h = 190.0;
-  e2e_wire.g = 1.05;
-  sma::Effects conv;
-  conv.convection_beta_per_K = 0.006;
-  m = p;
-  m.T_AS = 55.8;
-  m.T_AF = 88.8;
-  m.h = 219.0;
-  m.g = 0.997;
-  out.push_back({"e2e wire, fitted without its convection", m, conv, {}, false, e2e_wire});
+  out.push_back({"e2e wire, fitted without its convection", sma_host::e2e_fit_without_convection(),
+                 sma_host::e2e_wire_effects(), {}, false, sma_host::e2e_wire()});
   for (double L : {0.0, 0.5, 1.0}) {
     sma::Effects wire;
     wire.latent_heat_J = 1.0;

@@ -12,6 +12,7 @@
 // come back.
 #include <gtest/gtest.h>
 #include <vector>
+#include "sma_host/e2e_wire.hpp"
 #include "sma_host/metrics.hpp"
 
 namespace {
@@ -28,21 +29,13 @@ double steady_error(const sma_host::RunSetup& s) {
   return sma_host::step_metrics(sma_host::run_closed_loop<float>(s), s.reference.step_s).sse_mm;
 }
 
-// The end-to-end flow's wire (tools/vrig/e2e_flow.py WIRE: transformation 4 K higher, h 190,
-// 5 % more stroke, a heat loss that grows faster than linearly, beta 0.006 /K) with the model
-// `sma fit` leaves without that effect (docs/flow.md: h 219, T_AS 55.8, T_AF 88.8, g 0.997; its
-// steady states match the wire's, its heating transient is slower than the wire's).
+// The end-to-end flow's wire with the model `sma fit` leaves without its non-linear convection
+// (sma_host/e2e_wire.hpp; its steady states match the wire's, its heating transient is slower).
 TEST(PreviewWrongModel, DISABLED_FittedModelWithoutTheWiresConvectionHoldsEveryStep) {
   sma_host::RunSetup s = steps_rig_like();
-  s.plant_params.T_AS = 54.0;
-  s.plant_params.T_AF = 84.0;
-  s.plant_params.h = 190.0;
-  s.plant_params.g = 1.05;
-  s.plant_effects.convection_beta_per_K = 0.006;
-  s.model_params.T_AS = 55.8;
-  s.model_params.T_AF = 88.8;
-  s.model_params.h = 219.0;
-  s.model_params.g = 0.997;
+  s.plant_params = sma_host::e2e_wire();
+  s.plant_effects = sma_host::e2e_wire_effects();
+  s.model_params = sma_host::e2e_fit_without_convection();
   EXPECT_LE(steady_error(s), 0.01);
 }
 
