@@ -1,6 +1,7 @@
 // Tracking when the model on the board is not the wire: (a) a fitted model that is off (T_AS
 // and T_AF shifted, h or g scaled, or plant B as the wire), (b) a wire with latent heat and
-// models of it from none to exact. Rig-like, float (the firmware's scalar), default settings
+// models of it from none to exact, (c) the end-to-end flow's wire (tools/vrig/e2e_flow.py WIRE:
+// a hidden non-linear convection) with the model `sma fit` leaves without that effect. Rig-like, float (the firmware's scalar), default settings
 // of every controller (console::default_gains, PreviewConfig()), true position, whole run.
 // The steps' figures that matter here: SSE (zero steady-state error with a model that is not
 // the plant), RMS against PID alone, and the up/down-step overshoot within 10 s of a step.
@@ -12,6 +13,7 @@
 #include <string>
 #include <vector>
 #include "sma/console.hpp"
+#include "sma_host/e2e_wire.hpp"
 #include "sma_host/metrics.hpp"
 #include "sma_host/plant_b_rig.hpp"
 #include "sma_host/progress.hpp"
@@ -26,6 +28,7 @@ struct Case {
   sma::Effects plant_fx;  // what the wire does (library plant)
   sma::Effects model_fx;
   bool plant_b = false;   // the wire is plant B (literal re-heat reading)
+  sma::Params plant = sma::Params();  // the wire's parameters (library plant)
 };
 
 struct Row {
@@ -63,6 +66,8 @@ std::vector<Case> cases() {
   m.g *= 1.03;
   out.push_back({"model g +3 %", m, {}, {}, false});
   out.push_back({"plant B (literal) as the wire", p, {}, {}, true});
+  out.push_back({"e2e wire, fitted without its convection", sma_host::e2e_fit_without_convection(),
+                 sma_host::e2e_wire_effects(), {}, false, sma_host::e2e_wire()});
   for (double L : {0.0, 0.5, 1.0}) {
     sma::Effects wire;
     wire.latent_heat_J = 1.0;
@@ -98,6 +103,7 @@ int main(int argc, char** argv) {
         s.mode = mode;
         s.condition = sma_host::Condition::rig_like();
         s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
+        s.plant_params = c.plant;
         s.model_params = c.model;
         s.plant_effects = c.plant_fx;
         s.model_effects = c.model_fx;

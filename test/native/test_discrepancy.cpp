@@ -4,6 +4,7 @@
 // parameters, shrink the gap to the noise, and add nothing to a clean log.
 #include <gtest/gtest.h>
 #include <algorithm>
+#include "sma_host/e2e_wire.hpp"
 #include "sma_host/hidden_effects.hpp"
 #include "sma_host/residuals.hpp"
 
@@ -149,13 +150,8 @@ TEST(Discrepancy, RefittingTheWholeBaseOnATrainingRunNamesTheEffectAndKeepsTheSe
   // sensor gain is held (with g free only their product is observable: a drifting gain would
   // make the controller track a scaled reference), and no effect is reported at its "no effect"
   // value.
-  sma::Params truth;
-  truth.T_AS = 54;
-  truth.T_AF = 84;
-  truth.h = 190;
-  truth.g = 1.05;
-  sma::Effects fx;
-  fx.convection_beta_per_K = 0.006;
+  const sma::Params truth = sma_host::e2e_wire();
+  const sma::Effects fx = sma_host::e2e_wire_effects();
   TrainingSignal tr;  // the training run's shape, shortened: faster slope, 5 peaks, all probes
   tr.plan.slope = 0.05;
   tr.peaks = {2.0, 1.42, 1.36, 1.31, 1.26};

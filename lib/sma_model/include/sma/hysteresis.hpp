@@ -149,6 +149,9 @@ class PhaseCurves {
   }
 
   T T_AS() const { return T_AS_; }
+  // The major heating curve (eqs 2-4, 15) moved by dT along the temperature: a wire that is at
+  // fraction eps_heat(T + dT) of these curves at T (the preview's learned curve shift).
+  void shift_heating(T dT) { T_AS_ = T_AS_ - dT; }
   T T_AF() const { return T_AS_ + width_A_; }
   T T_MF() const { return T_MF_; }
 

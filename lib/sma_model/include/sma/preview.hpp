@@ -17,7 +17,13 @@
 //  - Integral action: the offset d between the measured and the model position is estimated
 //    by a low-pass (offset_tau_s) and subtracted from the reference before inversion, so a
 //    fitted model that is not the plant still reaches every setpoint (offset-free, as in
-//    disturbance-model MPC).
+//    disturbance-model MPC). Two refinements for a model far from the wire (docs/control.md
+//    section 16): (a) in a hold, a gap the wire is still closing by itself (it lags the model
+//    wire) is not taken into d: integrated, such a lag drives the model wire past the setpoint
+//    on a branch that cannot come back (the hysteresis locks it in); (b) at rest on the major
+//    heating curve, d is moved into a shift of that curve's temperatures (eq 15 of the wire's
+//    fraction against the model wire's), which, unlike a position offset, stays right along the
+//    whole curve, so the next move needs no new offset.
 //  - Heat-loss observer (heat_gain.hpp): a position offset cannot stand for a heat-balance
 //    error (a model h that is off heats the model wire to another temperature than the wire,
 //    and its loop memory then belongs to another wire). While both wires transform on the
@@ -117,6 +123,12 @@ struct PreviewConfig {
   // Ticks from a command to the measurement that first sees it: the PWM of the next tick plus
   // the host's rig-like computation delay (a board: its PWM tick and ADC averaging, ~1.5).
   double heat_gain_lag_ticks = 2.0;
+  // The lag guard (a): in a hold, the measured position's move over ~0.4 s (two low-passes,
+  // 0.2 s and 0.6 s) beyond this, towards the model wire, marks a lag: d does not take it
+  // (0 = off).
+  double lag_guard_mm = 0.002;
+  // The heating curve's shift (b): time constant of moving d into it, s (0 = off).
+  double curve_shift_tau_s = 1.0;
 
   const char* check() const {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
@@ -137,12 +149,16 @@ struct PreviewConfig {
     if (!(heat_gain_dead_zone >= 0.0 && heat_gain_dead_zone <= 0.2)) return "heat_gain_dead_zone must be in 0..0.2";
     if (!(heat_gain_lag_ticks >= 0.0 && heat_gain_lag_ticks <= 10.0)) return "heat_gain_lag_ticks must be in 0..10";
     if (!(heat_gain_adapt_s >= 0.1 && heat_gain_adapt_s <= 1000.0)) return "heat_gain_adapt_s must be in 0.1..1000";
+    if (!(lag_guard_mm >= 0.0 && lag_guard_mm <= 0.1)) return "lag_guard_mm must be in 0..0.1";
+    if (!(curve_shift_tau_s == 0.0 || (curve_shift_tau_s >= dt && curve_shift_tau_s <= 100.0)))
+      return "curve_shift_tau_s must be 0 or in dt..100";
     return nullptr;
   }
 };
 
-// The controller on model boxes it shares with its owner: the phase curves and the thermal model
-// (eqs 1-17) of a board's inverse model (sma/controller.hpp), which must outlive it.
+// The controller on model boxes of its owner: the thermal model (eqs 1, 17) of a board's inverse
+// model (sma/controller.hpp), which must outlive it, and a copy of its phase curves (the preview
+// moves its heating curve by the learned shift, the inverse model's stays).
 template <class T>
 class PreviewCore {
  public:
@@ -193,7 +209,12 @@ class PreviewCore {
         far_step_s_(cfg.lookahead_s / kFar),
         rise_margin_(from_double<T>(cfg.rise_margin_mm)),
         min_hold_(static_cast<uint8_t>(2.0 / cfg.grid_s + 0.999)),
-        look_far_(cfg.lookahead_s > 0.0) {
+        look_far_(cfg.lookahead_s > 0.0),
+        lag_guard_(from_double<T>(cfg.lag_guard_mm)),
+        a_fast_(from_double<T>(cfg.dt / 0.2)),
+        a_slow_(from_double<T>(cfg.dt / 0.6)),
+        shift_gain_(from_double<T>(cfg.curve_shift_tau_s > 0.0 ? cfg.dt / cfg.curve_shift_tau_s : 0.0)),
+        shift_after_(static_cast<uint16_t>(1.0 / cfg.dt + 0.5)) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -217,6 +238,10 @@ class PreviewCore {
     eps_est_ = est_.eps();
     deps_ = T(0);
     d_ = T(0);
+    // The learned heating-curve shift is kept: it belongs to the wire, not to this start.
+    x_init_ = false;
+    held_ticks_ = 0;
+    shift_due_ = false;
     switch_due_ = 0;
     heating_ = true;
     moved_with_ = true;
@@ -258,8 +283,7 @@ class PreviewCore {
     if (!valid_ || !is_finite(ref) || !is_finite(measured)) return hold_off();
     ref = clamp(ref, T(0), mech_.g);
     ref_now_ = ref;
-    // Integral action: the offset between the wire and the model wire.
-    d_ = d_ + d_alpha_ * ((measured - mech_.displacement(eps_est_)) - d_);
+    update_offset(ref, measured);
     if (observing() && ++observe_tick_ >= kObserveTicks) {
       // A heat-loss sample: the tick keeps what it saw, prepare_next_tick() judges it.
       observe_tick_ = 0;
@@ -328,10 +352,12 @@ class PreviewCore {
       // A heat-loss sample of the last tick with it (a lead sample is cheap; the grid steps of
       // the other calls keep their pace).
       if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();
+      if (shift_due_) learn_shift();
       prepare_voltages();
       return false;
     }
     if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();  // in-step planning
+    if (shift_due_) learn_shift();
     // The heating reached the peak of a hold approached on the rise: cool (here, not in the
     // tick: the switch builds the loop).
     if (heating_ && capped(ref_now_) && at_cap(T_est_)) {
@@ -353,6 +379,7 @@ class PreviewCore {
   bool heating() const { return heating_; }       // the branch the controller drives
   uint16_t plans() const { return plans_; }       // completed plans (tests, telemetry)
   T heat_loss_gain() const { return heat_.gain(); }  // the wire's heat loss against the model's
+  T heating_shift() const { return shift_; }  // K: the wire at T is where the model's curve has T + shift
 
  private:
   T hold_off() {
@@ -363,6 +390,51 @@ class PreviewCore {
   }
 
   bool observing() const { return SMA_PREVIEW_HEAT_LOSS && observe_heat_; }
+
+  // Integral action: the offset d between the wire and the model wire (a low-pass, offset_tau_s),
+  // except for a lag (lag_guard_mm). And whether this tick may move d into the heating curve's
+  // shift (learn_shift, between ticks): in a hold of >= 1 s, the wire and the model wire at rest.
+  void update_offset(T ref, T measured) {
+    if (!x_init_) {
+      x_fast_ = x_slow_ = measured;
+      x_init_ = true;
+    }
+    x_fast_ = x_fast_ + a_fast_ * (measured - x_fast_);
+    x_slow_ = x_slow_ + a_slow_ * (measured - x_slow_);
+    if (abs(ref - held_ref_) > deadband_) {
+      held_ref_ = ref;
+      held_ticks_ = 0;
+    } else if (held_ticks_ < 60000) {
+      ++held_ticks_;
+    }
+    const T moving = x_fast_ - x_slow_;  // ~ the position's rate x 0.4 s
+    const T innovation = (measured - mech_.displacement(eps_est_)) - d_;
+    // A lag: in a hold, the wire moves and the innovation points behind its move (it is still
+    // on its way to where the model wire already is).
+    const bool lag = lag_guard_ > T(0) && held_ticks_ > 0 && abs(moving) > lag_guard_ && innovation * moving < T(0);
+    if (!lag) d_ = d_ + d_alpha_ * innovation;
+    // At rest: the wire moves < 2 um in 0.4 s, the model wire < 2 um/s.
+    shift_due_ = shift_gain_ > T(0) && held_ticks_ > shift_after_ && !(abs(moving) > T(0.002)) &&
+                 est_.heating() && abs(deps_ * mech_.g) < T(0.002);
+  }
+
+  // d into the heating curve's shift (eq 15 of the position the model wire would need, against
+  // the model wire's temperature, to first order: d over the curve's slope), at the pace
+  // curve_shift_tau_s, while the model wire rests on the major heating curve. The model wire is
+  // re-anchored there (its temperature kept) and d keeps the measured position.
+  SMA_PREVIEW_NOINLINE void learn_shift() {
+    shift_due_ = false;
+    const T slope = heating_slope();
+    if (!(slope > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
+    const T dshift = shift_gain_ * d_ / slope;
+    const T x_old = mech_.displacement(eps_est_);
+    shift_ = shift_ + dshift;
+    curves_.shift_heating(dshift);
+    const T below = T_est_ - T(0.01);
+    est_.reset(below, curves_.eps_heat(below));
+    eps_est_ = est_.update(T_est_);
+    d_ = d_ + (x_old - mech_.displacement(eps_est_));
+  }
 
   // The voltage that drives the model wire onto branch heat's temperature for lead reference r
   // (mm): eq 15 or 16 (branch_temperature), then eq 17 with the first-order pull track_s.
@@ -448,7 +520,9 @@ class PreviewCore {
     obs_pending_ = false;
     const T slope = heating_slope();
     if (!(abs(slope) > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
-    const T gap = clamp(curves_.heat_temperature(mech_.fraction(obs_x_)) - obs_T_then_, T(-10), T(10));
+    // (On the model's own heating curve: the shift learned below would otherwise move the
+    // regression's intercept under it.)
+    const T gap = clamp(curves_.heat_temperature(mech_.fraction(obs_x_)) + shift_ - obs_T_then_, T(-10), T(10));
     const T k_before = heat_.gain();
     heat_.add(gap, slope);
     // A new gain changes the model wire's past: its temperature now is the one the new gain
@@ -663,7 +737,7 @@ class PreviewCore {
     ++j_;
   }
 
-  const PhaseCurves<T>& curves_;
+  PhaseCurves<T> curves_;  // a copy: its heating curve carries the learned shift
   const Thermal<T>& thermal_;
   Mechanics<T> mech_;
   WireStep<T> wire_step_;
@@ -696,6 +770,15 @@ class PreviewCore {
   T rise_margin_;      // rise_margin_mm
   uint8_t min_hold_;   // grid steps of a hold: 2 s
   bool look_far_;
+  // The lag guard and the heating curve's shift (update_offset, learn_shift).
+  T lag_guard_, a_fast_, a_slow_, shift_gain_;
+  uint16_t shift_after_;               // ticks of a hold before the shift is learned: 1 s
+  T x_fast_ = T(0), x_slow_ = T(0);    // the measurement low-passed over 0.2 s and 0.6 s
+  bool x_init_ = false;
+  T held_ref_ = T(-1);
+  uint16_t held_ticks_ = 0;            // ticks the reference has held (within the deadband)
+  bool shift_due_ = false;
+  T shift_ = T(0);                     // K, the learned shift of the heating curve
   bool far_open_ = false;        // looking for the next move beyond the horizon
   bool down_next_ = false;       // the hold's next move is down (the last look's verdict)
   T hold_ref_ = T(-1), peak_T_ = T(-1);  // the hold it looked at, and its peak T_i*
