@@ -572,13 +572,15 @@ class Board {
 #if defined(__AVR__)
     // The paper's plan copied from flash: constructed, its arrays' initial values would sit in
     // .data (80 B of RAM for good).
-    static const TrainingPlan kPlan PROGMEM = TrainingPlan();
+    static constexpr TrainingPlan kPlan PROGMEM = TrainingPlan();
     memcpy_P(plan, &kPlan, sizeof(TrainingPlan));
 #else
     new (plan) TrainingPlan();
 #endif
     if (slope > 0.0) plan->slope = slope;
-    const double length_s = plan->duration();
+    // plan->duration() with its slope-free parts folded (the built-in plan's peaks and holds).
+    constexpr double kHolds_s = TrainingPlan().holds_s(), kRamps2_V = 2.0 * TrainingPlan().ramp_V();
+    const double length_s = kHolds_s + kRamps2_V / plan->slope;
     gen_.train.end_ticks = static_cast<uint32_t>(length_s * Rig::tick_hz()) + 1u;
     v_.x.training_ = true;
     v_.x.run_start_ = v_.x.ticks_;
