@@ -340,6 +340,7 @@ class Board {
   };
   struct Training {      // the training signal being played (train)
     TrainingPlan plan;
+    TrainingPlan::Cursor at;  // the cycle of the last tick (each tick walks on from it)
     uint32_t end_ticks;  // its length in ticks
   };
   // A member whose initial value is all zero bytes (Live, LineBuffer, Reply: every default is 0),
@@ -578,6 +579,7 @@ class Board {
     new (plan) TrainingPlan();
 #endif
     if (slope > 0.0) plan->slope = slope;
+    new (&gen_.train.at) TrainingPlan::Cursor();
     // plan->duration() with its slope-free parts folded (the built-in plan's peaks and holds).
     constexpr double kHolds_s = TrainingPlan().holds_s(), kRamps2_V = 2.0 * TrainingPlan().ramp_V();
     const double length_s = kHolds_s + kRamps2_V / plan->slope;
@@ -588,7 +590,7 @@ class Board {
     reply_.x.put_fixed(length_s, 1);
     reply_.x.put_f(SMA_F(" s"));
   }
-  SMA_NOINLINE float training_voltage(float t) { return static_cast<float>(gen_.train.plan.voltage_at(t)); }
+  SMA_NOINLINE float training_voltage(float t) { return static_cast<float>(gen_.train.plan.voltage_at(t, gen_.train.at)); }
 
   // The controller, the latch and the reference follow an OK'd command: each setting only when
   // this command sets it.
