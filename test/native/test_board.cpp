@@ -2,6 +2,7 @@
 // command sets them, the rig's limits come from its constants, the uploaded sensor calibration
 // acts in the feedback.
 #include <gtest/gtest.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <string>
@@ -63,6 +64,24 @@ TEST(Board, TlimSurvivesEveryOtherCommand) {
     EXPECT_DOUBLE_EQ(r.b->state().tlim_C, 80.0) << "after '" << c << "'";
   }
   EXPECT_NE(r.cmd("status").find("tlim=80"), std::string::npos);
+}
+
+// `train [slope]` answers the length of the paper's plan at that slope: the board folds its
+// slope-free parts at compile time (TrainingPlan::holds_s, ramp_V); here the length is summed
+// segment by segment (section III.B: a hold, then per peak a rise and a descent at +-slope and a
+// hold, then the probe's levels and its last probe_s off).
+TEST(Board, TrainAnswersThePlansLengthAtItsSlope) {
+  const sma::TrainingPlan p;
+  for (double slope : {0.0, 1.0, 0.02}) {  // 0: no argument, the paper's slope
+    Bench r;
+    const double s = slope > 0.0 ? slope : p.slope;
+    double want = p.hold_s;
+    for (uint8_t k = 0; k < p.n_peaks; ++k) want += 2.0 * (p.peaks[k] - p.floor_V) / s + p.hold_s;
+    want += p.n_probes * p.probe_s + p.probe_s;
+    const std::string rep = r.cmd(slope > 0.0 ? "train " + std::to_string(slope) : std::string("train"));
+    ASSERT_EQ(rep.rfind("OK train ", 0), 0u) << rep;
+    EXPECT_NEAR(atof(rep.c_str() + 9), want, 0.051) << rep;  // printed to 0.1 s
+  }
 }
 
 TEST(Board, OpenLoopVoltageChangesOnlyWithVolt) {

@@ -47,6 +47,28 @@ TEST(Reference, TrajectoryInterpolatesAndRejectsBadPoints) {
   EXPECT_EQ(ref.n_points, sma::kMaxPoints);  // full: further points refused
 }
 
+// A player that keeps a cursor (the firmware, every tick) hears the same plan as one that walks
+// every cycle from the start at each call, ticks at 100 Hz from before the start to past the end.
+TEST(Training, ACursorPlaysTheSamePlan) {
+  for (double slope : {5.88e-3, 1.0}) {
+    sma::TrainingPlan p;
+    p.slope = slope;
+    sma::TrainingPlan::Cursor c;
+    uint8_t cycles_seen = 0;
+    for (int k = -10; k * 0.01 < p.duration() + 5.0; ++k) {
+      const double t = k * 0.01;
+      // (At a step of the probe the two roundings of t can fall on either side of it: the level
+      // of t +- 1 us counts there.)
+      const double v = p.voltage_at(t, c);
+      const bool same = fabs(v - p.voltage_at(t)) < 1e-9 || fabs(v - p.voltage_at(t - 1e-6)) < 1e-9 ||
+                        fabs(v - p.voltage_at(t + 1e-6)) < 1e-9;
+      ASSERT_TRUE(same) << "t = " << t << " s, slope " << slope << ": " << v << " V, the plan " << p.voltage_at(t);
+      cycles_seen = c.k;
+    }
+    EXPECT_EQ(cycles_seen, p.n_peaks);  // it walked through every cycle, not from the start
+  }
+}
+
 TEST(Training, ThePapersDecayingRampWithReversalsAndAProbe) {
   const sma::TrainingPlan p;
   EXPECT_EQ(p.check(), nullptr);

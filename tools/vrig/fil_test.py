@@ -23,7 +23,7 @@ Tests (each writes DIR/<test>/... and prints a one-line summary; exit status 0 =
                   rig log, and the heater off after the console ends
   upload          `tools/sma upload` over the pseudo-terminal of vrig --pty, then a reboot reads
                   every key back (needs sma_params next to vrig, or --sma-params)
-  train           (the train ELF) `train 1`: the logged v_V is sma::TrainingPlan::voltage_at
+  train           (either image) `train 1`: the logged v_V is sma::TrainingPlan::voltage_at
                   (slope 1 V/s) to the printed precision (at a segment boundary: at most one tick
                   off, float time on the AVR), the duty to the PWM quantisation,
                   "# train done" at the end and the heater off after it
@@ -568,7 +568,7 @@ def t_console(args):
     return name, {"rows": len(rows)}, failures
 
 
-# ---- the built-in training run (the train ELF) ---------------------------------------------------
+# ---- the built-in training run (either image) ----------------------------------------------------
 def training_oracle(args, slope):
     """The training signal as sma_sim writes it (sma::TrainingPlan::voltage_at, the one
     definition): (times, volts, duration) sampled every 10 ms."""

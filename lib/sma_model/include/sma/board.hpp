@@ -340,6 +340,7 @@ class Board {
   };
   struct Training {      // the training signal being played (train)
     TrainingPlan plan;
+    TrainingPlan::Cursor at;  // the cycle of the last tick (each tick walks on from it)
     uint32_t end_ticks;  // its length in ticks
   };
   // A member whose initial value is all zero bytes (Live, LineBuffer, Reply: every default is 0),
@@ -576,13 +577,16 @@ class Board {
 #if defined(__AVR__)
     // The paper's plan copied from flash: constructed, its arrays' initial values would sit in
     // .data (80 B of RAM for good).
-    static const TrainingPlan kPlan PROGMEM = TrainingPlan();
+    static constexpr TrainingPlan kPlan PROGMEM = TrainingPlan();
     memcpy_P(plan, &kPlan, sizeof(TrainingPlan));
 #else
     new (plan) TrainingPlan();
 #endif
     if (slope > 0.0) plan->slope = slope;
-    const double length_s = plan->duration();
+    new (&gen_.train.at) TrainingPlan::Cursor();
+    // plan->duration() with its slope-free parts folded (the built-in plan's peaks and holds).
+    constexpr double kHolds_s = TrainingPlan().holds_s(), kRamps2_V = 2.0 * TrainingPlan().ramp_V();
+    const double length_s = kHolds_s + kRamps2_V / plan->slope;
     gen_.train.end_ticks = static_cast<uint32_t>(length_s * Rig::tick_hz()) + 1u;
     v_.x.training_ = true;
     v_.x.run_start_ = v_.x.ticks_;
@@ -590,7 +594,7 @@ class Board {
     reply_.x.put_fixed(length_s, 1);
     reply_.x.put_f(SMA_F(" s"));
   }
-  SMA_NOINLINE float training_voltage(float t) { return static_cast<float>(gen_.train.plan.voltage_at(t)); }
+  SMA_NOINLINE float training_voltage(float t) { return static_cast<float>(gen_.train.plan.voltage_at(t, gen_.train.at)); }
 
   // The controller, the latch and the reference follow an OK'd command: each setting only when
   // this command sets it.

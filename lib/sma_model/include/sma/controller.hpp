@@ -138,17 +138,12 @@ class Controller {
   // `cfg_ok`: the config's check(), done by the caller (at compile time for CheckedConfig).
   Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg, bool cfg_ok)
       : cfg_(cfg),
-        inverse_(p, fx, with_dt(cfg.inverse, cfg.dt, cfg.v_max)),
+        inverse_(p, fx, cfg.inverse, cfg.dt, cfg.v_max),  // the controller's tick and V_max
         pid_(cfg.gains, cfg.dt),
         T_wire_(from_double<T>(p.T_amb + fx.ambient_offset_K)),
         v_max_(from_double<T>(cfg.v_max)),
         valid_(cfg_ok && p.check() == nullptr && fx.check() == nullptr) {}
 
-  static InverseConfig with_dt(InverseConfig c, double dt, double v_max) {
-    c.dt = dt;
-    c.v_max = v_max;
-    return c;
-  }
   // The voltage that holds the estimated wire temperature (eq 17, dT/dt = 0), at the measured
   // fraction: the same resistance R(eps) the estimate uses (phase-dependent resistance).
   // (Out of line: one copy for the tick and prepare_next_tick, flash on the Uno.)
@@ -165,7 +160,7 @@ class Controller {
         v2_ = pid_.step(ref - measured, measured, T(0), v_max_);
         break;
       case Mode::Feedforward:
-        v1_ = inverse_.step(ref);  // 0..V_max: the inverse has the same V_max (with_dt)
+        v1_ = inverse_.step(ref);  // 0..V_max: the inverse has the same V_max
         break;
       case Mode::FeedforwardPid: {
         v1_ = inverse_.step(ref);

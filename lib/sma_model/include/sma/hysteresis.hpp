@@ -94,6 +94,13 @@ class PhaseCurves {
   // divides (the same numbers make_loop gives, computed later).
   CoolingLoop<T> start_loop(T T_i, T eps_i, bool on_major) const {
     CoolingLoop<T> L;
+    start_loop(T_i, eps_i, on_major, L);
+    return L;
+  }
+  // The same into `L` (not read: T_i and eps_i are copies): Hysteresis builds its loop in place,
+  // without a temporary loop on the stack and its copy (32 B of the deepest stack in Q16.16:
+  // pcommit -> the controller's constructor -> Hysteresis::reset).
+  void start_loop(T T_i, T eps_i, bool on_major, CoolingLoop<T>& L) const {
     L.T_i = T_i;
     L.eps_i = eps_i;
     T j, span;
@@ -106,7 +113,6 @@ class PhaseCurves {
     L.T_MSi = clamp(martensite_start(T_i, on_major, eps_i), T_MF_, L.T_ii);
     L.inv_cool = L.T_MSi - T_MF_;  // pending
     L.inv_top = L.top > T(0) ? T(1) / L.top : T(0);
-    return L;
   }
   // The rates of a loop from start_loop: j_i / (T_i - T_ii) (eq 6) and 1 / (T_MSi - T_MF) (eq 11).
   void finish_loop(CoolingLoop<T>& L) const {
@@ -311,8 +317,9 @@ class Hysteresis {
   }
 
   // loop_ := the loop a cooling from (T_i, eps_) starts, its rates pending until used.
-  void start_loop(T T_i, bool on_major) {
-    loop_ = curves_->start_loop(T_i, eps_, on_major);
+  // (Out of line: one copy for reset(), prepare_cooling_shape() and advance().)
+  __attribute__((noinline)) void start_loop(T T_i, bool on_major) {
+    curves_->start_loop(T_i, eps_, on_major, loop_);
     loop_pending_ = true;
   }
   // Completes a pending loop_ (a cache: logically const). Out of line: one copy of its two

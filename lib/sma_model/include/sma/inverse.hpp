@@ -45,15 +45,20 @@ struct InverseConfig {
 template <class T>
 class InverseModel {
  public:
-  InverseModel(const Params& p, const Effects& fx = Effects(), InverseConfig cfg = InverseConfig())
+  InverseModel(const Params& p, const Effects& fx = Effects(), const InverseConfig& cfg = InverseConfig())
+      : InverseModel(p, fx, cfg, cfg.dt, cfg.v_max) {}
+  // With the tick and V_max given apart (the controller's: its config has them once). The config
+  // by reference, not a modified copy: on the AVR a copy sat on the frame that builds the
+  // controller while it builds the loop memory (the firmware's deepest stack, Q16.16).
+  InverseModel(const Params& p, const Effects& fx, const InverseConfig& cfg, double dt, double v_max)
       : curves_(p),
         thermal_(p, fx),
         mech_(p, fx),
         memory_(curves_, from_double<T>(p.T_amb), T(0)),
-        wire_step_(thermal_, p, cfg.dt, fx),
-        v_max_(from_double<T>(cfg.v_max)),
-        inv_dt_(from_double<T>(1.0 / cfg.dt)),
-        alpha_(from_double<T>(1.0 - decay_factor(cfg.dt / cfg.rate_filter_s))),
+        wire_step_(thermal_, p, dt, fx),
+        v_max_(from_double<T>(v_max)),
+        inv_dt_(from_double<T>(1.0 / dt)),
+        alpha_(from_double<T>(1.0 - decay_factor(dt / cfg.rate_filter_s))),
         inv_tau_(from_double<T>(1.0 / cfg.rate_filter_s)),
         inv_track_(from_double<T>(1.0 / cfg.track_s)),
         deadband_(from_double<T>(cfg.deadband_mm)) {

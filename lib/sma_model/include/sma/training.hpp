@@ -30,6 +30,8 @@ constexpr uint8_t kMaxTrainingPeaks = 12;
 constexpr uint8_t kMaxTrainingProbes = 8;
 
 struct TrainingPlan {
+  // (Spelled out: avr-gcc 5.4 cannot evaluate the implicit one in a constant expression.)
+  constexpr TrainingPlan() {}
   double slope = 5.88e-3;  // V/s, both directions (paper)
   double peaks[kMaxTrainingPeaks] = {2.0, 1.6, 1.55, 1.5, 1.46, 1.42, 1.39, 1.36, 1.33, 1.3, 1.25, 1.2};
   uint8_t n_peaks = 12;
@@ -60,27 +62,49 @@ struct TrainingPlan {
   double cycle_s(uint8_t k) const { return 2.0 * rise_s(k, 1.0 / slope) + hold_s; }
 
   // The ramps' total is hold + sum over the peaks of (2 (peak - floor) / slope + hold): one
-  // division, not one per peak.
-  double duration() const {
+  // division, not one per peak. In two parts that do not depend on the slope, so that a board
+  // playing its built-in plan at another slope folds both at compile time (Board::start_training).
+  double duration() const { return holds_s() + 2.0 * ramp_V() / slope; }
+  // The volts the ramps climb (the sum of peak - floor): 2 ramp_V() / slope seconds of ramps.
+  constexpr double ramp_V() const {
     double rise = 0.0;
     for (uint8_t k = 0; k < n_peaks; ++k) rise += peaks[k] - floor_V;
-    return (n_peaks + 1) * hold_s + 2.0 * rise / slope + (n_probes > 0 ? (n_probes + 1) * probe_s : 0.0);
+    return rise;
+  }
+  // The seconds that do not ramp: the holds at the floor and the probe (its holds, then off).
+  constexpr double holds_s() const {
+    return (n_peaks + 1) * hold_s + (n_probes > 0 ? (n_probes + 1) * probe_s : 0.0);
   }
 
+  // Where a player of the plan is: cycle k (peak k's rise, descent and hold) starts t0 seconds
+  // after the first hold.
+  struct Cursor {
+    uint8_t k = 0;
+    double t0 = 0.0;
+  };
   // The voltage at t seconds from the start (0 after the end).
   double voltage_at(double t) const {
+    Cursor c;
+    return voltage_at(t, c);
+  }
+  // The same, starting from the cycle `c` names and moving it to the cycle that holds t: a
+  // caller that keeps it while t only grows (the firmware, a tick at a time) walks each cycle
+  // once instead of every cycle before t at every call (~1 k AVR cycles a cycle).
+  double voltage_at(double t, Cursor& c) const {
     if (!(t >= hold_s)) return floor_V;  // the first hold (and t < 0, NaN: hold_s >= 0)
-    t -= hold_s;
-    // One division per call, not two per peak: the firmware plays this every tick (~500 AVR
-    // cycles a division).
+    const double ramps = t - hold_s;
+    t = ramps - c.t0;
+    // One division per call, not two per peak (~500 AVR cycles a division).
     const double inv_slope = 1.0 / slope;
-    for (uint8_t k = 0; k < n_peaks; ++k) {
+    for (uint8_t k = c.k; k < n_peaks; ++k) {
       const double rise = rise_s(k, inv_slope);
       if (t < rise) return floor_V + slope * t;
       t -= rise;  // now from the peak
       if (t < rise) return peaks[k] - slope * t;
       t -= rise + hold_s;  // the rest of cycle_s(k)
       if (t < 0.0) return floor_V;
+      c.k = static_cast<uint8_t>(k + 1);
+      c.t0 = ramps - t;
     }
     // (t >= 0 here.)
     if (t < n_probes * probe_s) {
