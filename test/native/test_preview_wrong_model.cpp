@@ -4,14 +4,13 @@
 // (metrics.hpp's sse_mm: the best 2 s mean in each step's second half, the worst step) within
 // 10 um = 5 ADC steps.
 //
-// Open (docs/control.md section 16; measured by bench_tracking_model_error's rows "e2e wire,
-// fitted without its convection" and "latent heat 1 J, model 0.0 J", not asserted here): the e2e
-// wire with its fit alone holds 0.2 mm at 0.363 mm (SSE 0.16 mm); the latent-heat wire's 0.5 mm
-// hold is 0.012 mm low. Both start with the offset estimate (the integral action) taking a
-// transient gap between the wire and the model wire for a steady one and driving the model wire
-// past the setpoint on a branch that cannot come back.
+// Open (docs/control.md section 16; measured by bench_tracking_model_error's row "latent heat
+// 1 J, model 0.0 J", not asserted here): the latent-heat wire's 0.5 mm hold is 0.012 mm low (the
+// offset estimate takes part of a transient gap for a steady one and drives the model wire past
+// the setpoint on a branch that cannot come back).
 #include <gtest/gtest.h>
 #include <vector>
+#include "sma_host/e2e_wire.hpp"
 #include "sma_host/metrics.hpp"
 
 namespace {
@@ -57,6 +56,24 @@ TEST(PreviewWrongModel, AHeatingCurveOffByTwoKelvinIsHeldLikeTheExactModel) {
       EXPECT_GT(steady_error(s), 0.005) << dT;
     }
   }
+}
+
+// The end-to-end flow's wire (sma_host::e2e_wire: a heat loss that grows faster than linearly
+// with the temperature rise, its transformation ~2 K below the fit's) with the model `sma fit`
+// leaves without that effect: after the flow's step 5 the fitted model is the board's only model,
+// and issue 13 asks for every hold within 10 um with it. The wire heats faster than the fitted
+// model wire: on the first step it passes 0.2 mm, and the voltage that holds the model wire there
+// holds the wire 1.3-2 K below its peak, so it rides its minor-loop rise (eqs 5-6) to ~0.36 mm,
+// which the heating branch cannot take back. The re-approach (PreviewConfig::reapproach_mm) cools
+// it down its loop to the hold; without it the hold is missed by ~0.16 mm.
+TEST(PreviewWrongModel, TheEndToEndWireIsHeldWithItsFitAlone) {
+  sma_host::RunSetup s = steps_rig_like();
+  s.plant_params = sma_host::e2e_wire();
+  s.plant_effects = sma_host::e2e_wire_effects();
+  s.model_params = sma_host::e2e_fit_without_convection();
+  EXPECT_LE(steady_error(s), 0.010);
+  s.preview.reapproach_mm = 0.0;
+  EXPECT_GT(steady_error(s), 0.05);
 }
 
 }  // namespace

@@ -23,7 +23,10 @@
 //    on a branch that cannot come back (the hysteresis locks it in); (b) at rest on the major
 //    heating curve, d is moved into a shift of that curve's temperatures (eq 15 of the wire's
 //    fraction against the model wire's), which, unlike a position offset, stays right along the
-//    whole curve, so the next move needs no new offset.
+//    whole curve, so the next move needs no new offset; (c) a hold the wire overshot on the
+//    heating branch (it rode a minor-loop rise, eqs 5-6, which no heating can take back) is
+//    re-approached: the model wire is re-anchored on the wire's loop, the branch turns to
+//    cooling, and the heating curve is shifted by what the overshoot says of it.
 //  - Heat-loss observer (heat_gain.hpp): a position offset cannot stand for a heat-balance
 //    error (a model h that is off heats the model wire to another temperature than the wire,
 //    and its loop memory then belongs to another wire). While both wires transform on the
@@ -129,6 +132,9 @@ struct PreviewConfig {
   double lag_guard_mm = 0.002;
   // The heating curve's shift (b): time constant of moving d into it, s (0 = off).
   double curve_shift_tau_s = 1.0;
+  // The re-approach (c): a hold the wire stays above by more than this (mm) for 3.5 s at rest
+  // on the heating branch is approached again from its cooling loop (0 = off).
+  double reapproach_mm = 0.02;
 
   const char* check() const {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
@@ -152,6 +158,7 @@ struct PreviewConfig {
     if (!(lag_guard_mm >= 0.0 && lag_guard_mm <= 0.1)) return "lag_guard_mm must be in 0..0.1";
     if (!(curve_shift_tau_s == 0.0 || (curve_shift_tau_s >= dt && curve_shift_tau_s <= 100.0)))
       return "curve_shift_tau_s must be 0 or in dt..100";
+    if (!(reapproach_mm >= 0.0 && reapproach_mm <= 0.5)) return "reapproach_mm must be in 0..0.5";
     return nullptr;
   }
 };
@@ -214,7 +221,9 @@ class PreviewCore {
         a_fast_(from_double<T>(cfg.dt / 0.2)),
         a_slow_(from_double<T>(cfg.dt / 0.6)),
         shift_gain_(from_double<T>(cfg.curve_shift_tau_s > 0.0 ? cfg.dt / cfg.curve_shift_tau_s : 0.0)),
-        shift_after_(static_cast<uint16_t>(1.0 / cfg.dt + 0.5)) {
+        shift_after_(static_cast<uint16_t>(1.0 / cfg.dt + 0.5)),
+        reapproach_(from_double<T>(cfg.reapproach_mm)),
+        reapproach_after_(static_cast<uint16_t>(3.5 / cfg.dt + 0.5)) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -242,6 +251,8 @@ class PreviewCore {
     x_init_ = false;
     held_ticks_ = 0;
     shift_due_ = false;
+    above_ticks_ = 0;
+    reapproach_due_ = false;
     switch_due_ = 0;
     heating_ = true;
     moved_with_ = true;
@@ -353,11 +364,17 @@ class PreviewCore {
       // the other calls keep their pace).
       if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();
       if (shift_due_) learn_shift();
+      if (reapproach_due_) reapproach();
       prepare_voltages();
       return false;
     }
     if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();  // in-step planning
     if (shift_due_) learn_shift();
+    if (reapproach_due_) {
+      reapproach();
+      if (lead_ready_) prepare_voltages();
+      return false;
+    }
     // The heating reached the peak of a hold approached on the rise: cool (here, not in the
     // tick: the switch builds the loop).
     if (heating_ && capped(ref_now_) && at_cap(T_est_)) {
@@ -413,6 +430,14 @@ class PreviewCore {
     // on its way to where the model wire already is).
     const bool lag = lag_guard_ > T(0) && held_ticks_ > 0 && abs(moving) > lag_guard_ && innovation * moving < T(0);
     if (!lag) d_ = d_ + d_alpha_ * innovation;
+    // Above the hold, at rest, on the heating branch (which never lowers the wire): count.
+    const bool above = reapproach_ > T(0) && heating_ && held_ticks_ > 0 && x_fast_ - ref > reapproach_ &&
+                       !(abs(moving) > T(0.002));
+    above_ticks_ = above ? static_cast<uint16_t>(above_ticks_ + 1) : uint16_t(0);
+    if (above_ticks_ > reapproach_after_) {
+      above_ticks_ = 0;
+      reapproach_due_ = true;
+    }
     // At rest: the wire moves < 2 um in 0.4 s, the model wire < 2 um/s.
     shift_due_ = shift_gain_ > T(0) && held_ticks_ > shift_after_ && !(abs(moving) > T(0.002)) &&
                  est_.heating() && abs(deps_ * mech_.g) < T(0.002);
@@ -434,6 +459,34 @@ class PreviewCore {
     est_.reset(below, curves_.eps_heat(below));
     eps_est_ = est_.update(T_est_);
     d_ = d_ + (x_old - mech_.displacement(eps_est_));
+  }
+
+  // (c) The wire overshot the hold on the heating branch and rode the rise of the loop it opened
+  // (eqs 5-6): only a cooling down that loop brings it back. The wire's fraction (the
+  // measurement low-passed, eq 14) is the top of its rise; the model's rise j at the model wire's
+  // peak (eqs 5-6) puts the wire's peak, on its heating curve, at eps_w - j. The model's heating
+  // curve has that fraction at heat_temperature(eps_w - j), the model wire was at T_est_: the
+  // difference is the heating curve's shift (eq 15; clamped to 5 K). The model wire is
+  // re-anchored at the wire's peak (its loop's rise then ends at eps_w) and the branch turns to
+  // cooling, down the loop to the hold (eq 16).
+  SMA_PREVIEW_NOINLINE void reapproach() {
+    reapproach_due_ = false;
+    const T eps_w = mech_.fraction(x_fast_);
+    const T eps_peak = max(eps_w - (curves_.start_loop(T_est_, eps_w, true).top - eps_w), T(0));
+    if (shift_gain_ > T(0)) {
+      const T dshift = clamp(curves_.heat_temperature(eps_peak) - T_est_, T(-5), T(5));
+      shift_ = shift_ + dshift;
+      curves_.shift_heating(dshift);
+    }
+    est_.reset(T_est_, eps_peak);
+    eps_est_ = est_.eps();
+    d_ = x_fast_ - mech_.displacement(eps_est_);
+    heating_ = false;
+    moved_with_ = false;
+    ref_extreme_ = ref_now_;
+    switch_due_ = 0;
+    est_.prepare_cooling();
+    restart_plan();
   }
 
   // The voltage that drives the model wire onto branch heat's temperature for lead reference r
@@ -773,6 +826,10 @@ class PreviewCore {
   // The lag guard and the heating curve's shift (update_offset, learn_shift).
   T lag_guard_, a_fast_, a_slow_, shift_gain_;
   uint16_t shift_after_;               // ticks of a hold before the shift is learned: 1 s
+  T reapproach_;                       // reapproach_mm
+  uint16_t reapproach_after_;          // ticks above the hold before it is re-approached: 3.5 s
+  uint16_t above_ticks_ = 0;
+  bool reapproach_due_ = false;
   T x_fast_ = T(0), x_slow_ = T(0);    // the measurement low-passed over 0.2 s and 0.6 s
   bool x_init_ = false;
   T held_ref_ = T(-1);
