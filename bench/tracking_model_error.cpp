@@ -68,6 +68,8 @@ std::vector<Case> cases() {
   out.push_back({"plant B (literal) as the wire", p, {}, {}, true});
   out.push_back({"e2e wire, fitted without its convection", sma_host::e2e_fit_without_convection(),
                  sma_host::e2e_wire_effects(), {}, false, sma_host::e2e_wire()});
+  out.push_back({"e2e wire, the flow's whole fit (board's model)", sma_host::e2e_flow_fit(),
+                 sma_host::e2e_wire_effects(), sma_host::e2e_flow_fit_effects(), false, sma_host::e2e_wire()});
   for (double L : {0.0, 0.5, 1.0}) {
     sma::Effects wire;
     wire.latent_heat_J = 1.0;
