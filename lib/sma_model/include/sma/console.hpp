@@ -14,7 +14,7 @@
 // | traj run             | run the trajectory (linear between points, then hold)   |            |
 // | mode open|pid|ff|ffpid|preview | select the controller (live if heating); preview where Limits::preview | |
 // | volt <V>             | open-loop voltage; selects mode open, heater on         | 0..2 V     |
-// | gains <kp> <ki> <kd> | PID gains of the selected PID mode (pid or ffpid)       | 0..1000    |
+// | gains <kp> <ki> <kd> | PID gains of the selected PID mode (pid or ffpid)       | 0..999     |
 // | tlim <degC>          | wire temperature limit of the safety latch              | 30..150    |
 // | tele on|off          | telemetry rows t_s,v_V,d_mm,ref_mm,duty at 100 Hz       |            |
 // | tele plot            | the same values as Teleplot lines `>v_V:0.81` ... (no rows) |        |
