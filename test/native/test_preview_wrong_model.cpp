@@ -23,6 +23,16 @@ sma_host::RunSetup steps_rig_like() {
   return s;
 }
 
+// The multi-step on the end-to-end flow's wire (sma_host::e2e_wire) with a model of it.
+sma_host::RunSetup e2e_steps(const sma::Params& model, const sma::Effects& model_fx) {
+  sma_host::RunSetup s = steps_rig_like();
+  s.plant_params = sma_host::e2e_wire();
+  s.plant_effects = sma_host::e2e_wire_effects();
+  s.model_params = model;
+  s.model_effects = model_fx;
+  return s;
+}
+
 double steady_error(const sma_host::RunSetup& s) {
   return sma_host::step_metrics(sma_host::run_closed_loop<float>(s), s.reference.step_s).sse_mm;
 }
@@ -67,10 +77,7 @@ TEST(PreviewWrongModel, AHeatingCurveOffByTwoKelvinIsHeldLikeTheExactModel) {
 // which the heating branch cannot take back. The re-approach (PreviewConfig::reapproach_mm) cools
 // it down its loop to the hold; without it the hold is missed by ~0.16 mm.
 TEST(PreviewWrongModel, TheEndToEndWireIsHeldWithItsFitAlone) {
-  sma_host::RunSetup s = steps_rig_like();
-  s.plant_params = sma_host::e2e_wire();
-  s.plant_effects = sma_host::e2e_wire_effects();
-  s.model_params = sma_host::e2e_fit_without_convection();
+  sma_host::RunSetup s = e2e_steps(sma_host::e2e_fit_without_convection(), sma::Effects());
   EXPECT_LE(steady_error(s), 0.010);
   s.preview.reapproach_mm = 0.0;
   EXPECT_GT(steady_error(s), 0.05);
@@ -85,11 +92,7 @@ TEST(PreviewWrongModel, TheEndToEndWireIsHeldWithItsFitAlone) {
 // cooling raises it (0.405 mm). Approached from above (PreviewConfig::stale_offset_mm), every
 // hold is within the 10 um; without it the 0.5 mm hold is missed by ~0.09 mm.
 TEST(PreviewWrongModel, TheEndToEndWireIsHeldWithTheModelTheFlowUploads) {
-  sma_host::RunSetup s = steps_rig_like();
-  s.plant_params = sma_host::e2e_wire();
-  s.plant_effects = sma_host::e2e_wire_effects();
-  s.model_params = sma_host::e2e_flow_fit();
-  s.model_effects = sma_host::e2e_flow_fit_effects();
+  sma_host::RunSetup s = e2e_steps(sma_host::e2e_flow_fit(), sma_host::e2e_flow_fit_effects());
   EXPECT_LE(steady_error(s), 0.010);
   s.preview.stale_offset_mm = 0.0;
   EXPECT_GT(steady_error(s), 0.05);
