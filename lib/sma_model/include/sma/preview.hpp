@@ -27,6 +27,9 @@
 //    heating branch (it rode a minor-loop rise, eqs 5-6, which no heating can take back) is
 //    re-approached: the model wire is re-anchored on the wire's loop, the branch turns to
 //    cooling, and the heating curve is shifted by what the overshoot says of it.
+//    (d) A hold reached by a move down that started with a large offset is approached from
+//    above: an offset measured at one point of a cooling curve that is not the model's is wrong
+//    at another, and the cooling branch cannot raise a wire it took past the hold.
 //  - Heat-loss observer (heat_gain.hpp): a position offset cannot stand for a heat-balance
 //    error (a model h that is off heats the model wire to another temperature than the wire,
 //    and its loop memory then belongs to another wire). While both wires transform on the
