@@ -856,6 +856,7 @@ class PreviewCore {
   uint16_t shift_after_;               // ticks of a hold before the shift is learned: 1 s
   T reapproach_;                       // reapproach_mm
   T stale_offset_;                     // stale_offset_mm
+  T d_step_;                           // the offset when the reference last moved (reset() sets it)
   uint16_t reapproach_after_;          // ticks above the hold before it is re-approached: 3.5 s
   uint16_t above_ticks_ = 0;
   bool reapproach_due_ = false;
@@ -863,7 +864,6 @@ class PreviewCore {
   bool x_init_ = false;
   T held_ref_ = T(-1);
   uint16_t held_ticks_ = 0;            // ticks the reference has held (within the deadband)
-  T d_step_;                           // the offset when the reference last moved (reset() sets it)
   bool shift_due_ = false;
   T shift_ = T(0);                     // K, the learned shift of the heating curve
   bool far_open_ = false;        // looking for the next move beyond the horizon
