@@ -27,6 +27,9 @@
 //    heating branch (it rode a minor-loop rise, eqs 5-6, which no heating can take back) is
 //    re-approached: the model wire is re-anchored on the wire's loop, the branch turns to
 //    cooling, and the heating curve is shifted by what the overshoot says of it.
+//    (d) A hold reached by a move down that started with a large offset is approached from
+//    above: an offset measured at one point of a cooling curve that is not the model's is wrong
+//    at another, and the cooling branch cannot raise a wire it took past the hold.
 //  - Heat-loss observer (heat_gain.hpp): a position offset cannot stand for a heat-balance
 //    error (a model h that is off heats the model wire to another temperature than the wire,
 //    and its loop memory then belongs to another wire). While both wires transform on the
@@ -135,6 +138,11 @@ struct PreviewConfig {
   // The re-approach (c): a hold the wire stays above by more than this (mm) for 3.5 s at rest
   // on the heating branch is approached again from its cooling loop (0 = off).
   double reapproach_mm = 0.02;
+  // (d) A hold reached by a move down on the cooling branch (which never raises the wire), with
+  // an offset above this (mm) when the move started, is approached from above: the model wire
+  // is not cooled further once the wire, extrapolated 1.6 s ahead at its rate, is at the hold
+  // (0 = off).
+  double stale_offset_mm = 0.1;
 
   const char* check() const {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
@@ -159,6 +167,7 @@ struct PreviewConfig {
     if (!(curve_shift_tau_s == 0.0 || (curve_shift_tau_s >= dt && curve_shift_tau_s <= 100.0)))
       return "curve_shift_tau_s must be 0 or in dt..100";
     if (!(reapproach_mm >= 0.0 && reapproach_mm <= 0.5)) return "reapproach_mm must be in 0..0.5";
+    if (!(stale_offset_mm >= 0.0 && stale_offset_mm <= 1.0)) return "stale_offset_mm must be in 0..1";
     return nullptr;
   }
 };
@@ -223,6 +232,7 @@ class PreviewCore {
         shift_gain_(from_double<T>(cfg.curve_shift_tau_s > 0.0 ? cfg.dt / cfg.curve_shift_tau_s : 0.0)),
         shift_after_(static_cast<uint16_t>(1.0 / cfg.dt + 0.5)),
         reapproach_(from_double<T>(cfg.reapproach_mm)),
+        stale_offset_(from_double<T>(cfg.stale_offset_mm)),
         reapproach_after_(static_cast<uint16_t>(3.5 / cfg.dt + 0.5)) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
@@ -250,6 +260,7 @@ class PreviewCore {
     // The learned heating-curve shift is kept: it belongs to the wire, not to this start.
     x_init_ = false;
     held_ticks_ = 0;
+    d_step_ = T(0);
     shift_due_ = false;
     above_ticks_ = 0;
     reapproach_due_ = false;
@@ -421,6 +432,7 @@ class PreviewCore {
     if (abs(ref - held_ref_) > deadband_) {
       held_ref_ = ref;
       held_ticks_ = 0;
+      d_step_ = d_;
     } else if (held_ticks_ < 60000) {
       ++held_ticks_;
     }
@@ -489,10 +501,26 @@ class PreviewCore {
     restart_plan();
   }
 
+  // (d) A position offset is right where it was measured: between two points of cooling curves
+  // that are not the model's (a fit's eq 11 top, T_MSi, T_MF, and a heat loss that is not linear
+  // in the temperature rise, which the observer's gain learned on the heating curve does not
+  // follow) it changes, and a large one taken along a move down drives the model wire past the
+  // hold; the wire follows onto its cooling curve (eq 11), where the cooling branch cannot raise
+  // it. So after a move down that started with a large offset, on the cooling curve past the
+  // rise (eqs 5-6, where cooling would lift the wire), the model wire stops cooling once the wire
+  // is at the hold (the measurement's two low-passes: x_fast + 4 (x_fast - x_slow) is ~1.6 s
+  // ahead at its rate, the wire's lag behind its command); d then settles at the hold's own value
+  // and the cooling resumes if the wire rests above.
+  bool stale_cooling() const {
+    return stale_offset_ > T(0) && falling_ && held_ticks_ > 0 && abs(d_step_) > stale_offset_ &&
+           T_est_ < est_.loop().T_ii && !(x_fast_ + T(4) * (x_fast_ - x_slow_) > ref_now_);
+  }
+
   // The voltage that drives the model wire onto branch heat's temperature for lead reference r
   // (mm): eq 15 or 16 (branch_temperature), then eq 17 with the first-order pull track_s.
   SMA_PREVIEW_NOINLINE T branch_voltage(bool heat, T r) {
-    const T T_cmd = branch_temperature(heat, est_, T_est_, r);
+    T T_cmd = branch_temperature(heat, est_, T_est_, r);
+    if (!heat && stale_cooling()) T_cmd = max(T_cmd, T_est_);
     const T slope = (T_cmd - T_est_) * inv_track_;
     // Eq 17, with the observed heat loss: k^ G (T - T_a) = G (T - T_a) + C (extra slope).
     const T extra = observing() ? heat_.loss_correction() * inv_dt_ * (T_est_ - thermal_.T_a) : T(0);
@@ -827,6 +855,8 @@ class PreviewCore {
   T lag_guard_, a_fast_, a_slow_, shift_gain_;
   uint16_t shift_after_;               // ticks of a hold before the shift is learned: 1 s
   T reapproach_;                       // reapproach_mm
+  T stale_offset_;                     // stale_offset_mm
+  T d_step_;                           // the offset when the reference last moved (reset() sets it)
   uint16_t reapproach_after_;          // ticks above the hold before it is re-approached: 3.5 s
   uint16_t above_ticks_ = 0;
   bool reapproach_due_ = false;
