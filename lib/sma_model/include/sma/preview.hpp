@@ -73,6 +73,13 @@
 #define SMA_PREVIEW_HEAT_LOSS 1
 #endif
 
+// The options only the host and the AVR cycle harness use: planning inside step() (plan_in_step)
+// and commit_switch. A board plans between ticks and does not commit (sma/board.hpp); 0 leaves
+// their code out of its image (firmware/src/main.cpp) and refuses a config that asks for them.
+#ifndef SMA_PREVIEW_HOST_OPTIONS
+#define SMA_PREVIEW_HOST_OPTIONS 1
+#endif
+
 // One copy of the functions a board calls from several places (AVR flash).
 #define SMA_PREVIEW_NOINLINE __attribute__((noinline))
 
@@ -142,6 +149,8 @@ struct PreviewConfig {
     if (!(grid_s >= dt && grid_s <= 5.0)) return "grid_s must be in dt..5";
     if (!(horizon_s >= grid_s && horizon_s / grid_s <= 32.0)) return "horizon_s must be in grid_s..32 grid_s";
     if (!(steps_per_tick >= 1)) return "steps_per_tick must be >= 1";
+    if (!SMA_PREVIEW_HOST_OPTIONS && (plan_in_step || commit_switch))
+      return "plan_in_step and commit_switch need SMA_PREVIEW_HOST_OPTIONS 1";
     if (!(track_s >= dt && track_s <= 10.0)) return "track_s must be in dt..10";
     if (!(offset_tau_s > 0.0 && offset_tau_s <= 100.0)) return "offset_tau_s must be in 0..100";
     if (!(cool_weight >= 0.0 && cool_weight <= 100.0)) return "cool_weight must be in 0..100";
@@ -186,7 +195,7 @@ class PreviewCore {
         wire_step_(thermal_, p, cfg.dt, fx),
         grid_step_(p, cfg.grid_s, fx),
         est_(curves_, from_double<T>(p.T_amb + fx.ambient_offset_K), T(0)),
-        sim_h_(curves_, from_double<T>(p.T_amb), T(0)),
+        sim_h_(est_),  // (start_sim() copies est_ into it before every plan)
         v_max_(from_double<T>(cfg.v_max)),
         inv_dt_(from_double<T>(1.0 / cfg.dt)),
         inv_track_(from_double<T>(1.0 / cfg.track_s)),
@@ -306,18 +315,18 @@ class PreviewCore {
     follow_reference(ref);
     if (switch_due_ > 0 && --switch_due_ == 0) switch_branch();
     ++elapsed_ticks_;
-    if (plan_in_step_)
+    if (plans_in_step())
       for (uint8_t k = 0; k < steps_per_tick_; ++k)
         if (plan_step(future)) break;
     // The voltage: this branch's inverse of the reference track_s ahead. Planning between
     // ticks, plan_step() has computed it for both branches already (prepare_voltages: no
     // reference and no inverse left in the tick), unless the hold's verdict changed since.
     T v;
-    if (voltages_ready_ && !plan_in_step_ && cap_on_ == pre_cap_on_ && cap_ref_ == pre_cap_ref_ &&
+    if (voltages_ready_ && !plans_in_step() && cap_on_ == pre_cap_on_ && cap_ref_ == pre_cap_ref_ &&
         cap_T_ == pre_cap_T_) {
       v = v_branch_[heating_ ? 1 : 0];
     } else {
-      T r_lead = lead_ready_ && !plan_in_step_ ? lead_ : future(track_);
+      T r_lead = lead_ready_ && !plans_in_step() ? lead_ : ahead(future, track_);
       if (!is_finite(r_lead)) r_lead = ref;
       v = branch_voltage(heating_, clamp(r_lead, T(0), mech_.g));
     }
@@ -357,8 +366,8 @@ class PreviewCore {
   bool plan_step(const Future& future) {
     if (!valid_) return false;
     prepare_next_tick();
-    if (!plan_in_step_ && !lead_ready_) {  // first call after a tick: the next tick's lead sample (track_s ahead)
-      lead_ = future(track_next_);
+    if (!plans_in_step() && !lead_ready_) {  // first call after a tick: the next tick's lead sample (track_s ahead)
+      lead_ = ahead(future, track_next_);
       lead_ready_ = true;
       // A heat-loss sample of the last tick with it (a lead sample is cheap; the grid steps of
       // the other calls keep their pace).
@@ -407,6 +416,7 @@ class PreviewCore {
   }
 
   bool observing() const { return SMA_PREVIEW_HEAT_LOSS && observe_heat_; }
+  bool plans_in_step() const { return SMA_PREVIEW_HOST_OPTIONS && plan_in_step_; }
 
   // Integral action: the offset d between the wire and the model wire (a low-pass, offset_tau_s),
   // except for a lag (lag_guard_mm). And whether this tick may move d into the heating curve's
@@ -416,8 +426,8 @@ class PreviewCore {
       x_fast_ = x_slow_ = measured;
       x_init_ = true;
     }
-    x_fast_ = x_fast_ + a_fast_ * (measured - x_fast_);
-    x_slow_ = x_slow_ + a_slow_ * (measured - x_slow_);
+    x_fast_ = low_pass(x_fast_, a_fast_, measured);
+    x_slow_ = low_pass(x_slow_, a_slow_, measured);
     if (abs(ref - held_ref_) > deadband_) {
       held_ref_ = ref;
       held_ticks_ = 0;
@@ -452,13 +462,26 @@ class PreviewCore {
     const T slope = heating_slope();
     if (!(slope > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
     const T dshift = shift_gain_ * d_ / slope;
-    const T x_old = mech_.displacement(eps_est_);
     shift_ = shift_ + dshift;
     curves_.shift_heating(dshift);
-    const T below = T_est_ - T(0.01);
+    reanchor_heating(T_est_);
+  }
+
+  // The model wire re-anchored on the (major) heating curve at Tn, its loop memory reset there;
+  // the offset d keeps the measured position.
+  SMA_PREVIEW_NOINLINE void reanchor_heating(T Tn) {
+    const T x_old = mech_.displacement(eps_est_);
+    const T below = Tn - T(0.01);
     est_.reset(below, curves_.eps_heat(below));
-    eps_est_ = est_.update(T_est_);
+    eps_est_ = est_.update(Tn);
     d_ = d_ + (x_old - mech_.displacement(eps_est_));
+  }
+
+  // The future reference tau seconds ahead. (Out of line: one copy of the board's reference for
+  // the tick's lead, the plan's samples and the look beyond the horizon.)
+  template <class Future>
+  SMA_PREVIEW_NOINLINE static T ahead(const Future& future, T tau) {
+    return future(tau);
   }
 
   // (c) The wire overshot the hold on the heating branch and rode the rise of the loop it opened
@@ -583,14 +606,10 @@ class PreviewCore {
     // so the model wire is re-anchored there, and the offset keeps the measured position.
     const T T_new = T_est_ + (heat_.gain() - k_before) * heat_.sensitivity();
     if (T_new != T_est_) {
-      const T x_old = mech_.displacement(eps_est_);
-      const T below = T_new - T(0.01);
-      est_.reset(below, curves_.eps_heat(below));
-      eps_est_ = est_.update(T_new);
+      reanchor_heating(T_new);
       T_prev_ = T_prev_ + (T_new - T_est_);
       T_est_ = T_new;
       obs_model_ = mech_.displacement(eps_est_);
-      d_ = d_ + (x_old - obs_model_);
     }
   }
 
@@ -682,7 +701,7 @@ class PreviewCore {
       // comes, unless a later plan prefers otherwise); without it only "now" switches, and
       // a switch that every new plan puts a few seconds later is never made.
       switch_due_ = 0;
-      if (commit_switch_ && best_ != kNever && best_cost_ < natural_cost_ - switch_margin_) {
+      if (SMA_PREVIEW_HOST_OPTIONS && commit_switch_ && best_ != kNever && best_cost_ < natural_cost_ - switch_margin_) {
         const long due = static_cast<long>(best_ * grid_s_ / dt_ + 0.5) - elapsed_ticks_;
         if (due <= 0) switch_branch();
         else switch_due_ = static_cast<uint16_t>(due);
@@ -727,7 +746,7 @@ class PreviewCore {
       }
     } else if (far_open_) {
       const double tau = n_grid_ * grid_s_ + j_ * far_step_s_ - elapsed_ticks_ * dt_;
-      const T r = future(from_double<T>(tau));
+      const T r = ahead(future, from_double<T>(tau));
       if (is_finite(r) && abs(r - hold_ref_) > deadband_) {
         down_next_ = r < hold_ref_;
         far_open_ = false;
@@ -746,7 +765,7 @@ class PreviewCore {
   void sim_step(const Future& future) {
     if (cand_ == 0) {  // the first candidate samples the future reference for all of them
       const double tau = (j_ + 1) * grid_s_ - elapsed_ticks_ * dt_;
-      const T r = future(from_double<T>(tau > 0.0 ? tau : 0.0));
+      const T r = ahead(future, from_double<T>(tau > 0.0 ? tau : 0.0));
       r_[j_] = is_finite(r) ? clamp(r, T(0), mech_.g) : (j_ ? r_[j_ - 1] : T(0));
     } else if (cand_ == 1 && j_ <= kFar && look_far_) {
       look_far(future);
@@ -774,8 +793,10 @@ class PreviewCore {
     // Exact limits of eq 1 over one grid step: full power, or none.
     // (the observed heat loss to first order over the grid step: (k^ - 1) G grid_s / C)
     const T loss = observing() ? heat_.loss_correction() * grid_ticks_ * (sim_T_ - thermal_.T_a) : T(0);
-    const T hi = grid_step_(sim_T_, v_max_) - loss;
-    const T lo = grid_step_(sim_T_, T(0)) - loss;
+    // (No power: eq 1's passive part alone, the same number as grid_step_(sim_T_, 0).)
+    const T passive = grid_step_.passive(sim_T_);
+    const T hi = passive + grid_step_.heat(v_max_) - loss;
+    const T lo = passive - loss;
     sim_T_ = clamp(target, lo, hi);
     // Error in 0.1 mm (Q16.16 keeps its square); e^2 (1 + e^2): errors past 0.1 mm weigh more,
     // so the plan trades a long small error for a short large one the way the max metric does.
