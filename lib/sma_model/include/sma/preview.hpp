@@ -428,7 +428,7 @@ class PreviewCore {
     }
     x_fast_ = low_pass(x_fast_, a_fast_, measured);
     x_slow_ = low_pass(x_slow_, a_slow_, measured);
-    if (abs(ref - held_ref_) > deadband_) {
+    if (apart(ref, held_ref_)) {
       held_ref_ = ref;
       held_ticks_ = 0;
     } else if (held_ticks_ < 60000) {
@@ -557,7 +557,8 @@ class PreviewCore {
   // stepping down a level whenever the scalar's rounding lands just below it.
   T pwm_level_below(T v) const {
     const double x = to_double(v) / v_supply_, top = pwm_top_;
-    const double n = ::floor(x * x * top + 0.01);
+    // (x >= 0 and finite: branch_voltage clamps v to 0..v_max; the truncation is floor's value.)
+    const double n = static_cast<double>(static_cast<long>(x * x * top + 0.01));
     return from_double<T>(v_supply_ * ::sqrt(n / top));
   }
 
@@ -621,14 +622,14 @@ class PreviewCore {
       ref_prev_ = ref;
       have_ref_ = true;
     }
-    if (ref < ref_prev_ - deadband_) falling_ = true;
-    if (ref > ref_prev_ + deadband_) falling_ = false;
+    if (below(ref, ref_prev_)) falling_ = true;
+    if (above(ref, ref_prev_)) falling_ = false;
     ref_prev_ = ref;
     if (heating_ ? ref > ref_extreme_ : ref < ref_extreme_) {
-      if (abs(ref - ref_extreme_) > deadband_) moved_with_ = true;
+      if (apart(ref, ref_extreme_)) moved_with_ = true;
       ref_extreme_ = ref;
     }
-    if (moved_with_ && (heating_ ? ref < ref_extreme_ - deadband_ : ref > ref_extreme_ + deadband_)) {
+    if (moved_with_ && (heating_ ? below(ref, ref_extreme_) : above(ref, ref_extreme_))) {
       heating_ = !heating_;
       ref_extreme_ = ref;
       moved_with_ = true;  // the reference already moves with the new branch
@@ -716,11 +717,18 @@ class PreviewCore {
     return false;
   }
 
+  // References (mm) against the deadband: a move (apart), none (within), one down (below) or up
+  // (above) from b. (Out of line: the tick, the plan and the look share one copy each.)
+  SMA_PREVIEW_NOINLINE bool apart(T a, T b) const { return abs(a - b) > deadband_; }
+  SMA_PREVIEW_NOINLINE bool within(T a, T b) const { return abs(a - b) <= deadband_; }
+  SMA_PREVIEW_NOINLINE bool below(T a, T b) const { return a < b - deadband_; }
+  SMA_PREVIEW_NOINLINE bool above(T a, T b) const { return a > b + deadband_; }
+
   // Is reference r a hold approached on the rise (its next move is down)?
-  bool capped(T r) const { return cap_on_ && abs(r - cap_ref_) <= deadband_; }
+  bool capped(T r) const { return cap_on_ && within(r, cap_ref_); }
   // Heading up to (or at) a hold approached on the rise, below its peak: a cooling that starts
   // here would rise short of the hold (the planned switch waits for the peak).
-  bool climbs_to_cap(T r) const { return cap_on_ && !(r > cap_ref_ + deadband_) && sim_T_ < cap_T_; }
+  bool climbs_to_cap(T r) const { return cap_on_ && !above(r, cap_ref_) && sim_T_ < cap_T_; }
   // The heating has reached the peak whose rise ends at the hold. (It is driven 0.1 K past it:
   // it crosses T_i* at speed instead of creeping up to it.)
   bool at_cap(T Tw) const { return !(Tw < cap_T_); }
@@ -735,10 +743,10 @@ class PreviewCore {
       far_open_ = false;
       down_next_ = false;
       for (uint8_t i = 0, e; i < n_grid_; i = e) {
-        for (e = static_cast<uint8_t>(i + 1); e < n_grid_ && abs(r_[e] - r_[i]) <= deadband_;) ++e;
+        for (e = static_cast<uint8_t>(i + 1); e < n_grid_ && within(r_[e], r_[i]);) ++e;
         if (e - i < min_hold_) continue;  // not held 2 s
         if (e < n_grid_ && !(r_[e] < r_[i])) continue;
-        if (abs(r_[i] - hold_ref_) > deadband_) peak_T_ = T(-1);  // a new hold: start the fixed point again
+        if (apart(r_[i], hold_ref_)) peak_T_ = T(-1);  // a new hold: start the fixed point again
         hold_ref_ = r_[i];
         down_next_ = e < n_grid_;
         far_open_ = e >= n_grid_;
@@ -747,7 +755,7 @@ class PreviewCore {
     } else if (far_open_) {
       const double tau = n_grid_ * grid_s_ + j_ * far_step_s_ - elapsed_ticks_ * dt_;
       const T r = ahead(future, from_double<T>(tau));
-      if (is_finite(r) && abs(r - hold_ref_) > deadband_) {
+      if (is_finite(r) && apart(r, hold_ref_)) {
         down_next_ = r < hold_ref_;
         far_open_ = false;
       }
@@ -781,10 +789,10 @@ class PreviewCore {
       sim_ext_ = r;
     } else {
       if (sim_heat_ ? r > sim_ext_ : r < sim_ext_) {
-        if (abs(r - sim_ext_) > deadband_) sim_moved_ = true;
+        if (apart(r, sim_ext_)) sim_moved_ = true;
         sim_ext_ = r;
       }
-      if (sim_moved_ && (sim_heat_ ? r < sim_ext_ - deadband_ : r > sim_ext_ + deadband_)) {
+      if (sim_moved_ && (sim_heat_ ? below(r, sim_ext_) : above(r, sim_ext_))) {
         sim_heat_ = !sim_heat_;
         sim_ext_ = r;
       }
@@ -803,8 +811,8 @@ class PreviewCore {
     const T e = T(10) * (mech_.displacement(sim_h_.update(sim_T_)) + d_ - r);
     const T e2 = e * e;
     const T r_before = j_ ? r_[j_ - 1] : ref_now_;
-    if (r < r_before - deadband_) sim_fall_ = true;
-    if (r > r_before + deadband_) sim_fall_ = false;
+    if (below(r, r_before)) sim_fall_ = true;
+    if (above(r, r_before)) sim_fall_ = false;
     // The mean over the horizon, not the sum: Q16.16 (max 32767) holds it for any error of the
     // stroke (e2 (1 + e2) <= ~8600 at 0.96 mm) and any cool_weight <= 100 on a grid of up to kMaxGrid steps.
     cost_ = cost_ + (sim_fall_ ? cool_w_ : T(1)) * (e2 * (T(1) + e2) * inv_n_);
