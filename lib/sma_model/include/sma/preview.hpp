@@ -277,7 +277,7 @@ class PreviewCore {
   // Restart at the measured displacement (mm): the model wire at T0 with the fraction the
   // measurement implies (eq 14) - a board entering this controller from another one.
   void start(T T0, T measured) {
-    reset(T0, is_finite(measured) ? mech_.fraction(measured) : T(0));
+    reset(T0, is_finite(measured) ? fraction(measured) : T(0));
   }
   // A new reference (its clock restarted): the plan in progress sampled the old one.
   void new_reference() {
@@ -301,7 +301,7 @@ class PreviewCore {
   T step(T ref, const Future& future, T measured) {
     prepare_next_tick();  // a caller that did not call it between ticks
     if (!valid_ || !is_finite(ref) || !is_finite(measured)) return hold_off();
-    ref = clamp(ref, T(0), mech_.g);
+    ref = on_stroke(ref);
     ref_now_ = ref;
     update_offset(ref, measured);
     if (observing() && ++observe_tick_ >= kObserveTicks) {
@@ -328,7 +328,7 @@ class PreviewCore {
     } else {
       T r_lead = lead_ready_ && !plans_in_step() ? lead_ : ahead(future, track_);
       if (!is_finite(r_lead)) r_lead = ref;
-      v = branch_voltage(heating_, clamp(r_lead, T(0), mech_.g));
+      v = branch_voltage(heating_, on_stroke(r_lead));
     }
     lead_ready_ = false;
     voltages_ready_ = false;
@@ -441,16 +441,16 @@ class PreviewCore {
     const bool lag = lag_guard_ > T(0) && held_ticks_ > 0 && abs(moving) > lag_guard_ && innovation * moving < T(0);
     if (!lag) d_ = d_ + d_alpha_ * innovation;
     // Above the hold, at rest, on the heating branch (which never lowers the wire): count.
-    const bool above = reapproach_ > T(0) && heating_ && held_ticks_ > 0 && x_fast_ - ref > reapproach_ &&
-                       !(abs(moving) > T(0.002));
+    const bool resting = !(abs(moving) > T(0.002));
+    const bool above = reapproach_ > T(0) && heating_ && held_ticks_ > 0 && x_fast_ - ref > reapproach_ && resting;
     above_ticks_ = above ? static_cast<uint16_t>(above_ticks_ + 1) : uint16_t(0);
     if (above_ticks_ > reapproach_after_) {
       above_ticks_ = 0;
       reapproach_due_ = true;
     }
     // At rest: the wire moves < 2 um in 0.4 s, the model wire < 2 um/s.
-    shift_due_ = shift_gain_ > T(0) && held_ticks_ > shift_after_ && !(abs(moving) > T(0.002)) &&
-                 est_.heating() && abs(deps_ * mech_.g) < T(0.002);
+    shift_due_ = shift_gain_ > T(0) && held_ticks_ > shift_after_ && resting && est_.heating() &&
+                 abs(deps_ * mech_.g) < T(0.002);
   }
 
   // d into the heating curve's shift (eq 15 of the position the model wire would need, against
@@ -494,7 +494,7 @@ class PreviewCore {
   // cooling, down the loop to the hold (eq 16).
   SMA_PREVIEW_NOINLINE void reapproach() {
     reapproach_due_ = false;
-    const T eps_w = mech_.fraction(x_fast_);
+    const T eps_w = fraction(x_fast_);
     const T eps_peak = max(eps_w - (curves_.start_loop(T_est_, eps_w, true).top - eps_w), T(0));
     if (shift_gain_ > T(0)) {
       const T dshift = clamp(curves_.heat_temperature(eps_peak) - T_est_, T(-5), T(5));
@@ -531,7 +531,7 @@ class PreviewCore {
   void prepare_voltages() {
     voltages_ready_ = false;
     if (!is_finite(lead_)) return;  // the tick falls back on its reference now
-    const T r = clamp(lead_, T(0), mech_.g);
+    const T r = on_stroke(lead_);
     v_branch_[0] = branch_voltage(false, r);
     v_branch_[1] = branch_voltage(true, r);
     pre_cap_on_ = cap_on_;
@@ -599,7 +599,7 @@ class PreviewCore {
     if (!(abs(slope) > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
     // (On the model's own heating curve: the shift learned below would otherwise move the
     // regression's intercept under it.)
-    const T gap = clamp(curves_.heat_temperature(mech_.fraction(obs_x_)) + shift_ - obs_T_then_, T(-10), T(10));
+    const T gap = clamp(curves_.heat_temperature(fraction(obs_x_)) + shift_ - obs_T_then_, T(-10), T(10));
     const T k_before = heat_.gain();
     heat_.add(gap, slope);
     // A new gain changes the model wire's past: its temperature now is the one the new gain
@@ -643,7 +643,7 @@ class PreviewCore {
   // The cooling loop is built once (prepare_cooling): the reversal's update() and the PWM
   // rounding reuse it (three builds of eqs 5-11 on one tick otherwise).
   T branch_temperature(bool heat, Hysteresis<T>& h, T Tw, T r) const {
-    const T eps_t = mech_.fraction(r - d_);  // eq 14, with the offset
+    const T eps_t = fraction(r - d_);  // eq 14, with the offset
     if (heat) return max(Tw, capped(r) ? cap_T_ + T(0.1) : curves_.heat_temperature(eps_t));
     const CoolingLoop<T>& L = h.prepare_cooling();
     // Still above the end of the rise and asked to stay or go up: ride the rise (eqs 5-6);
@@ -702,7 +702,8 @@ class PreviewCore {
       // comes, unless a later plan prefers otherwise); without it only "now" switches, and
       // a switch that every new plan puts a few seconds later is never made.
       switch_due_ = 0;
-      if (SMA_PREVIEW_HOST_OPTIONS && commit_switch_ && best_ != kNever && best_cost_ < natural_cost_ - switch_margin_) {
+      if (SMA_PREVIEW_HOST_OPTIONS && commit_switch_ && best_ != kNever &&
+          best_cost_ < natural_cost_ - switch_margin_) {
         const long due = static_cast<long>(best_ * grid_s_ / dt_ + 0.5) - elapsed_ticks_;
         if (due <= 0) switch_branch();
         else switch_due_ = static_cast<uint16_t>(due);
@@ -716,6 +717,11 @@ class PreviewCore {
     start_sim();
     return false;
   }
+
+  // A position (mm) clamped to the stroke; its fraction (eq 14, clamped to 0..1). (Out of line:
+  // one copy each for the tick, the plan and the observer.)
+  SMA_PREVIEW_NOINLINE T on_stroke(T x) const { return clamp(x, T(0), mech_.g); }
+  SMA_PREVIEW_NOINLINE T fraction(T x) const { return mech_.fraction(x); }
 
   // References (mm) against the deadband: a move (apart), none (within), one down (below) or up
   // (above) from b. (Out of line: the tick, the plan and the look share one copy each.)
@@ -761,7 +767,7 @@ class PreviewCore {
       }
     }
     if (!(down_next_ || far_open_)) return;
-    const T eps_t = mech_.fraction(hold_ref_ + rise_margin_ - d_);
+    const T eps_t = fraction(hold_ref_ + rise_margin_ - d_);
     if (peak_T_ < T(0)) peak_T_ = curves_.heat_temperature(eps_t);
     const T eps_i = curves_.eps_heat(peak_T_);
     const T j = curves_.start_loop(peak_T_, eps_i, true).top - eps_i;  // eqs 5-6, clamped at 1
@@ -774,7 +780,7 @@ class PreviewCore {
     if (cand_ == 0) {  // the first candidate samples the future reference for all of them
       const double tau = (j_ + 1) * grid_s_ - elapsed_ticks_ * dt_;
       const T r = ahead(future, from_double<T>(tau > 0.0 ? tau : 0.0));
-      r_[j_] = is_finite(r) ? clamp(r, T(0), mech_.g) : (j_ ? r_[j_ - 1] : T(0));
+      r_[j_] = is_finite(r) ? on_stroke(r) : (j_ ? r_[j_ - 1] : T(0));
     } else if (cand_ == 1 && j_ <= kFar && look_far_) {
       look_far(future);
     }
