@@ -825,6 +825,8 @@ class PreviewCore {
     ++j_;
   }
 
+  // (The state without an initializer below is set by reset(), which the constructor calls:
+  // initializers there would be stores the AVR image makes twice.)
   PhaseCurves<T> curves_;  // a copy: its heating curve carries the learned shift
   const Thermal<T>& thermal_;
   Mechanics<T> mech_;
@@ -850,7 +852,7 @@ class PreviewCore {
   uint8_t observe_tick_ = 0;
   T obs_meas_ = T(0), obs_model_ = T(0);  // positions at the observer's last sample
   bool obs_pending_ = false;              // a sample waits for plan_step()
-  bool sample_due_ = false;               // the tick took a sample: prepare_next_tick() judges it
+  bool sample_due_;                       // the tick took a sample: prepare_next_tick() judges it
   T due_x_ = T(0), due_T_ = T(0), due_T_prev_ = T(0);  // its measurement, the model wire then and before
   T obs_x_ = T(0), obs_T_then_ = T(0);    // its measurement and model wire temperature
   T lag_ticks_;
@@ -863,43 +865,43 @@ class PreviewCore {
   uint16_t shift_after_;               // ticks of a hold before the shift is learned: 1 s
   T reapproach_;                       // reapproach_mm
   uint16_t reapproach_after_;          // ticks above the hold before it is re-approached: 3.5 s
-  uint16_t above_ticks_ = 0;
-  bool reapproach_due_ = false;
+  uint16_t above_ticks_;
+  bool reapproach_due_;
   T x_fast_ = T(0), x_slow_ = T(0);    // the measurement low-passed over 0.2 s and 0.6 s
-  bool x_init_ = false;
+  bool x_init_;
   T held_ref_ = T(-1);
-  uint16_t held_ticks_ = 0;            // ticks the reference has held (within the deadband)
-  bool shift_due_ = false;
+  uint16_t held_ticks_;                // ticks the reference has held (within the deadband)
+  bool shift_due_;
   T shift_ = T(0);                     // K, the learned shift of the heating curve
   bool far_open_ = false;        // looking for the next move beyond the horizon
-  bool down_next_ = false;       // the hold's next move is down (the last look's verdict)
+  bool down_next_;               // the hold's next move is down (the last look's verdict)
   T hold_ref_ = T(-1), peak_T_ = T(-1);  // the hold it looked at, and its peak T_i*
-  bool cap_on_ = false;          // the verdict in use (from the last complete plan)
-  T cap_ref_ = T(-1), cap_T_ = T(0);
-  T T_prev_ = T(22);  // the model wire before its last step
+  bool cap_on_;                  // the verdict in use (from the last complete plan)
+  T cap_ref_, cap_T_;
+  T T_prev_;  // the model wire before its last step
   uint8_t switch_at_[kCandidates];
   // Model wire.
-  T T_est_ = T(22), eps_est_ = T(0), deps_ = T(0), d_ = T(0), v_ = T(0);
-  bool heating_ = true, moved_with_ = true, have_ref_ = false;
+  T T_est_, eps_est_, deps_, d_, v_;
+  bool heating_, moved_with_, have_ref_;
   bool falling_ = false;  // the reference's last move was down (the trade-off weight applies)
-  T ref_extreme_ = T(0), ref_prev_ = T(0), ref_now_ = T(0);
+  T ref_extreme_, ref_prev_ = T(0), ref_now_ = T(0);
   // Plan in progress.
   // The plan's reference samples. (Not packed into 16 bits: ~15 nm steps were enough to move
   // the planned switches at the sine's peaks, docs/control.md section 11.)
   T r_[kMaxGrid];
-  uint8_t cand_ = 0, j_ = 0, best_ = kNever;
-  uint16_t elapsed_ticks_ = 0, plans_ = 0;
-  uint16_t switch_due_ = 0;  // ticks until a planned branch switch, 0 = none
-  T best_cost_ = T(-1), natural_cost_ = T(0), cost_ = T(0), sim_T_ = T(22), sim_ext_ = T(0);
-  bool sim_heat_ = true, sim_moved_ = true, sim_fall_ = false;
+  uint8_t cand_, j_, best_;
+  uint16_t elapsed_ticks_, plans_ = 0;
+  uint16_t switch_due_;  // ticks until a planned branch switch, 0 = none
+  T best_cost_, natural_cost_ = T(0), cost_, sim_T_, sim_ext_;
+  bool sim_heat_, sim_moved_, sim_fall_;
   // The reference track_s after the next tick, sampled between ticks by plan_step().
   T lead_ = T(0);
-  bool lead_ready_ = false;
-  bool wire_pending_ = false;  // the model wire's hysteresis waits for prepare_next_tick()
+  bool lead_ready_;
+  bool wire_pending_;  // the model wire's hysteresis waits for prepare_next_tick()
   // The next tick's voltage on the cooling [0] and heating [1] branch (prepare_voltages), and
   // the hold's verdict it was computed with.
   T v_branch_[2];
-  bool voltages_ready_ = false;
+  bool voltages_ready_;
   bool pre_cap_on_ = false;
   T pre_cap_ref_ = T(0), pre_cap_T_ = T(0);
 };
