@@ -442,8 +442,8 @@ class PreviewCore {
     if (!lag) d_ = d_ + d_alpha_ * innovation;
     // Above the hold, at rest, on the heating branch (which never lowers the wire): count.
     const bool resting = !(abs(moving) > T(0.002));
-    const bool above = reapproach_ > T(0) && heating_ && held_ticks_ > 0 && x_fast_ - ref > reapproach_ && resting;
-    above_ticks_ = above ? static_cast<uint16_t>(above_ticks_ + 1) : uint16_t(0);
+    const bool over = reapproach_ > T(0) && heating_ && held_ticks_ > 0 && x_fast_ - ref > reapproach_ && resting;
+    above_ticks_ = over ? static_cast<uint16_t>(above_ticks_ + 1) : uint16_t(0);
     if (above_ticks_ > reapproach_after_) {
       above_ticks_ = 0;
       reapproach_due_ = true;
@@ -471,8 +471,8 @@ class PreviewCore {
   // the offset d keeps the measured position.
   SMA_PREVIEW_NOINLINE void reanchor_heating(T Tn) {
     const T x_old = mech_.displacement(eps_est_);
-    const T below = Tn - T(0.01);
-    est_.reset(below, curves_.eps_heat(below));
+    const T T_below = Tn - T(0.01);
+    est_.reset(T_below, curves_.eps_heat(T_below));
     eps_est_ = est_.update(Tn);
     d_ = d_ + (x_old - mech_.displacement(eps_est_));
   }
