@@ -18,8 +18,8 @@
 #define RIG_FEATURE_COMPENSATE 1
 #endif
 // The preview controller (sma/preview.hpp: `mode preview`, `cool W`, the default for
-// references): ~730 B of RAM and a few KB of flash the Uno's one image does not have yet; on in
-// the Mega image (sma_firmware_mega).
+// references): ~860 B of RAM and ~13 KB of flash the Uno's one image does not have yet
+// (docs/control.md section 17); on in the Mega image (sma_firmware_mega).
 #ifndef RIG_FEATURE_PREVIEW
 #define RIG_FEATURE_PREVIEW 0
 #endif

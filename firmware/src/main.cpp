@@ -12,6 +12,9 @@
 // No Arduino core: the firmware uses none of its timers (Timer0's millis ISR would only steal
 // cycles from the tick) and its own 115200-baud UART below (HardwareSerial's virtual Print
 // interface costs ~1 KB of flash and ~50 B of RAM it does not need).
+// The board plans the preview between ticks and does not commit to switches (sma/board.hpp):
+// the preview's host options stay out of the image (sma/preview.hpp).
+#define SMA_PREVIEW_HOST_OPTIONS 0
 #include "rig_board.h"
 #include "sma/board.hpp"
 #ifdef SMA_FIRMWARE_FIXED

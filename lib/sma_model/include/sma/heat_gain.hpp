@@ -32,6 +32,13 @@
 
 namespace sma {
 
+// One step of a first-order low-pass: m + a (x - m). (Out of line: one copy for the observer's
+// means and the preview's filters, flash on the Uno.)
+template <class T>
+__attribute__((noinline)) T low_pass(T m, T a, T x) {
+  return m + a * (x - m);
+}
+
 template <class T>
 class HeatLossObserver {
  public:
@@ -64,11 +71,11 @@ class HeatLossObserver {
     const T w = slope * slope;
     const T z = gap + k_ * S_;
     const T ws = w * S_;
-    mw_ = mw_ + a_ * (w - mw_);
-    mws_ = mws_ + a_ * (ws - mws_);
-    mwss_ = mwss_ + a_ * (ws * S_ - mwss_);
-    mwz_ = mwz_ + a_ * (w * z - mwz_);
-    mwsz_ = mwsz_ + a_ * (ws * z - mwsz_);
+    mw_ = low_pass(mw_, a_, w);
+    mws_ = low_pass(mws_, a_, ws);
+    mwss_ = low_pass(mwss_, a_, ws * S_);
+    mwz_ = low_pass(mwz_, a_, w * z);
+    mwsz_ = low_pass(mwsz_, a_, ws * z);
     // The slope of z over S (ridge regression), pulled towards k = 1 by a prior worth a spread
     // of S of 1 K: data that span few temperatures cannot tell the slope from the intercept (the
     // first transient from ambient spans only a few kelvin).
@@ -80,7 +87,7 @@ class HeatLossObserver {
     // Within the dead zone the model's own h is kept: the slope's bias from the loop's transients
     // is a few per cent, and the preview is as sensitive to a wrong gain as to a wrong h.
     if (abs(k_ls - T(1)) < dead_) k_ls = T(1);
-    k_ = k_ + b_ * (k_ls - k_);
+    k_ = low_pass(k_, b_, k_ls);
     kc_ = (k_ - T(1)) * c_;
   }
 

@@ -76,6 +76,13 @@
 #define SMA_PREVIEW_HEAT_LOSS 1
 #endif
 
+// The options only the host and the AVR cycle harness use: planning inside step() (plan_in_step)
+// and commit_switch. A board plans between ticks and does not commit (sma/board.hpp); 0 leaves
+// their code out of its image (firmware/src/main.cpp) and refuses a config that asks for them.
+#ifndef SMA_PREVIEW_HOST_OPTIONS
+#define SMA_PREVIEW_HOST_OPTIONS 1
+#endif
+
 // One copy of the functions a board calls from several places (AVR flash).
 #define SMA_PREVIEW_NOINLINE __attribute__((noinline))
 
@@ -150,6 +157,8 @@ struct PreviewConfig {
     if (!(grid_s >= dt && grid_s <= 5.0)) return "grid_s must be in dt..5";
     if (!(horizon_s >= grid_s && horizon_s / grid_s <= 32.0)) return "horizon_s must be in grid_s..32 grid_s";
     if (!(steps_per_tick >= 1)) return "steps_per_tick must be >= 1";
+    if (!SMA_PREVIEW_HOST_OPTIONS && (plan_in_step || commit_switch))
+      return "plan_in_step and commit_switch need SMA_PREVIEW_HOST_OPTIONS 1";
     if (!(track_s >= dt && track_s <= 10.0)) return "track_s must be in dt..10";
     if (!(offset_tau_s > 0.0 && offset_tau_s <= 100.0)) return "offset_tau_s must be in 0..100";
     if (!(cool_weight >= 0.0 && cool_weight <= 100.0)) return "cool_weight must be in 0..100";
@@ -195,7 +204,7 @@ class PreviewCore {
         wire_step_(thermal_, p, cfg.dt, fx),
         grid_step_(p, cfg.grid_s, fx),
         est_(curves_, from_double<T>(p.T_amb + fx.ambient_offset_K), T(0)),
-        sim_h_(curves_, from_double<T>(p.T_amb), T(0)),
+        sim_h_(est_),  // (start_sim() copies est_ into it before every plan)
         v_max_(from_double<T>(cfg.v_max)),
         inv_dt_(from_double<T>(1.0 / cfg.dt)),
         inv_track_(from_double<T>(1.0 / cfg.track_s)),
@@ -279,7 +288,7 @@ class PreviewCore {
   // Restart at the measured displacement (mm): the model wire at T0 with the fraction the
   // measurement implies (eq 14) - a board entering this controller from another one.
   void start(T T0, T measured) {
-    reset(T0, is_finite(measured) ? mech_.fraction(measured) : T(0));
+    reset(T0, is_finite(measured) ? fraction(measured) : T(0));
   }
   // A new reference (its clock restarted): the plan in progress sampled the old one.
   void new_reference() {
@@ -303,7 +312,7 @@ class PreviewCore {
   T step(T ref, const Future& future, T measured) {
     prepare_next_tick();  // a caller that did not call it between ticks
     if (!valid_ || !is_finite(ref) || !is_finite(measured)) return hold_off();
-    ref = clamp(ref, T(0), mech_.g);
+    ref = on_stroke(ref);
     ref_now_ = ref;
     update_offset(ref, measured);
     if (observing() && ++observe_tick_ >= kObserveTicks) {
@@ -317,20 +326,20 @@ class PreviewCore {
     follow_reference(ref);
     if (switch_due_ > 0 && --switch_due_ == 0) switch_branch();
     ++elapsed_ticks_;
-    if (plan_in_step_)
+    if (plans_in_step())
       for (uint8_t k = 0; k < steps_per_tick_; ++k)
         if (plan_step(future)) break;
     // The voltage: this branch's inverse of the reference track_s ahead. Planning between
     // ticks, plan_step() has computed it for both branches already (prepare_voltages: no
     // reference and no inverse left in the tick), unless the hold's verdict changed since.
     T v;
-    if (voltages_ready_ && !plan_in_step_ && cap_on_ == pre_cap_on_ && cap_ref_ == pre_cap_ref_ &&
+    if (voltages_ready_ && !plans_in_step() && cap_on_ == pre_cap_on_ && cap_ref_ == pre_cap_ref_ &&
         cap_T_ == pre_cap_T_) {
       v = v_branch_[heating_ ? 1 : 0];
     } else {
-      T r_lead = lead_ready_ && !plan_in_step_ ? lead_ : future(track_);
+      T r_lead = lead_ready_ && !plans_in_step() ? lead_ : ahead(future, track_);
       if (!is_finite(r_lead)) r_lead = ref;
-      v = branch_voltage(heating_, clamp(r_lead, T(0), mech_.g));
+      v = branch_voltage(heating_, on_stroke(r_lead));
     }
     lead_ready_ = false;
     voltages_ready_ = false;
@@ -368,8 +377,8 @@ class PreviewCore {
   bool plan_step(const Future& future) {
     if (!valid_) return false;
     prepare_next_tick();
-    if (!plan_in_step_ && !lead_ready_) {  // first call after a tick: the next tick's lead sample (track_s ahead)
-      lead_ = future(track_next_);
+    if (!plans_in_step() && !lead_ready_) {  // first call after a tick: the next tick's lead sample (track_s ahead)
+      lead_ = ahead(future, track_next_);
       lead_ready_ = true;
       // A heat-loss sample of the last tick with it (a lead sample is cheap; the grid steps of
       // the other calls keep their pace).
@@ -418,6 +427,7 @@ class PreviewCore {
   }
 
   bool observing() const { return SMA_PREVIEW_HEAT_LOSS && observe_heat_; }
+  bool plans_in_step() const { return SMA_PREVIEW_HOST_OPTIONS && plan_in_step_; }
 
   // Integral action: the offset d between the wire and the model wire (a low-pass, offset_tau_s),
   // except for a lag (lag_guard_mm). And whether this tick may move d into the heating curve's
@@ -427,9 +437,9 @@ class PreviewCore {
       x_fast_ = x_slow_ = measured;
       x_init_ = true;
     }
-    x_fast_ = x_fast_ + a_fast_ * (measured - x_fast_);
-    x_slow_ = x_slow_ + a_slow_ * (measured - x_slow_);
-    if (abs(ref - held_ref_) > deadband_) {
+    x_fast_ = low_pass(x_fast_, a_fast_, measured);
+    x_slow_ = low_pass(x_slow_, a_slow_, measured);
+    if (apart(ref, held_ref_)) {
       held_ref_ = ref;
       held_ticks_ = 0;
       d_step_ = d_;
@@ -443,16 +453,16 @@ class PreviewCore {
     const bool lag = lag_guard_ > T(0) && held_ticks_ > 0 && abs(moving) > lag_guard_ && innovation * moving < T(0);
     if (!lag) d_ = d_ + d_alpha_ * innovation;
     // Above the hold, at rest, on the heating branch (which never lowers the wire): count.
-    const bool above = reapproach_ > T(0) && heating_ && held_ticks_ > 0 && x_fast_ - ref > reapproach_ &&
-                       !(abs(moving) > T(0.002));
-    above_ticks_ = above ? static_cast<uint16_t>(above_ticks_ + 1) : uint16_t(0);
+    const bool resting = !(abs(moving) > T(0.002));
+    const bool over = reapproach_ > T(0) && heating_ && held_ticks_ > 0 && x_fast_ - ref > reapproach_ && resting;
+    above_ticks_ = over ? static_cast<uint16_t>(above_ticks_ + 1) : uint16_t(0);
     if (above_ticks_ > reapproach_after_) {
       above_ticks_ = 0;
       reapproach_due_ = true;
     }
     // At rest: the wire moves < 2 um in 0.4 s, the model wire < 2 um/s.
-    shift_due_ = shift_gain_ > T(0) && held_ticks_ > shift_after_ && !(abs(moving) > T(0.002)) &&
-                 est_.heating() && abs(deps_ * mech_.g) < T(0.002);
+    shift_due_ = shift_gain_ > T(0) && held_ticks_ > shift_after_ && resting && est_.heating() &&
+                 abs(deps_ * mech_.g) < T(0.002);
   }
 
   // d into the heating curve's shift (eq 15 of the position the model wire would need, against
@@ -464,13 +474,26 @@ class PreviewCore {
     const T slope = heating_slope();
     if (!(slope > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
     const T dshift = shift_gain_ * d_ / slope;
-    const T x_old = mech_.displacement(eps_est_);
     shift_ = shift_ + dshift;
     curves_.shift_heating(dshift);
-    const T below = T_est_ - T(0.01);
-    est_.reset(below, curves_.eps_heat(below));
-    eps_est_ = est_.update(T_est_);
+    reanchor_heating(T_est_);
+  }
+
+  // The model wire re-anchored on the (major) heating curve at Tn, its loop memory reset there;
+  // the offset d keeps the measured position.
+  SMA_PREVIEW_NOINLINE void reanchor_heating(T Tn) {
+    const T x_old = mech_.displacement(eps_est_);
+    const T T_below = Tn - T(0.01);
+    est_.reset(T_below, curves_.eps_heat(T_below));
+    eps_est_ = est_.update(Tn);
     d_ = d_ + (x_old - mech_.displacement(eps_est_));
+  }
+
+  // The future reference tau seconds ahead. (Out of line: one copy of the board's reference for
+  // the tick's lead, the plan's samples and the look beyond the horizon.)
+  template <class Future>
+  SMA_PREVIEW_NOINLINE static T ahead(const Future& future, T tau) {
+    return future(tau);
   }
 
   // (c) The wire overshot the hold on the heating branch and rode the rise of the loop it opened
@@ -483,7 +506,7 @@ class PreviewCore {
   // cooling, down the loop to the hold (eq 16).
   SMA_PREVIEW_NOINLINE void reapproach() {
     reapproach_due_ = false;
-    const T eps_w = mech_.fraction(x_fast_);
+    const T eps_w = fraction(x_fast_);
     const T eps_peak = max(eps_w - (curves_.start_loop(T_est_, eps_w, true).top - eps_w), T(0));
     if (shift_gain_ > T(0)) {
       const T dshift = clamp(curves_.heat_temperature(eps_peak) - T_est_, T(-5), T(5));
@@ -536,7 +559,7 @@ class PreviewCore {
   void prepare_voltages() {
     voltages_ready_ = false;
     if (!is_finite(lead_)) return;  // the tick falls back on its reference now
-    const T r = clamp(lead_, T(0), mech_.g);
+    const T r = on_stroke(lead_);
     v_branch_[0] = branch_voltage(false, r);
     v_branch_[1] = branch_voltage(true, r);
     pre_cap_on_ = cap_on_;
@@ -562,7 +585,8 @@ class PreviewCore {
   // stepping down a level whenever the scalar's rounding lands just below it.
   T pwm_level_below(T v) const {
     const double x = to_double(v) / v_supply_, top = pwm_top_;
-    const double n = ::floor(x * x * top + 0.01);
+    // (x >= 0 and finite: branch_voltage clamps v to 0..v_max; the truncation is floor's value.)
+    const double n = static_cast<double>(static_cast<long>(x * x * top + 0.01));
     return from_double<T>(v_supply_ * ::sqrt(n / top));
   }
 
@@ -603,7 +627,7 @@ class PreviewCore {
     if (!(abs(slope) > T(0.005))) return;  // < 5 um/K: the position does not see the temperature
     // (On the model's own heating curve: the shift learned below would otherwise move the
     // regression's intercept under it.)
-    const T gap = clamp(curves_.heat_temperature(mech_.fraction(obs_x_)) + shift_ - obs_T_then_, T(-10), T(10));
+    const T gap = clamp(curves_.heat_temperature(fraction(obs_x_)) + shift_ - obs_T_then_, T(-10), T(10));
     const T k_before = heat_.gain();
     heat_.add(gap, slope);
     // A new gain changes the model wire's past: its temperature now is the one the new gain
@@ -611,14 +635,10 @@ class PreviewCore {
     // so the model wire is re-anchored there, and the offset keeps the measured position.
     const T T_new = T_est_ + (heat_.gain() - k_before) * heat_.sensitivity();
     if (T_new != T_est_) {
-      const T x_old = mech_.displacement(eps_est_);
-      const T below = T_new - T(0.01);
-      est_.reset(below, curves_.eps_heat(below));
-      eps_est_ = est_.update(T_new);
+      reanchor_heating(T_new);
       T_prev_ = T_prev_ + (T_new - T_est_);
       T_est_ = T_new;
       obs_model_ = mech_.displacement(eps_est_);
-      d_ = d_ + (x_old - obs_model_);
     }
   }
 
@@ -630,14 +650,14 @@ class PreviewCore {
       ref_prev_ = ref;
       have_ref_ = true;
     }
-    if (ref < ref_prev_ - deadband_) falling_ = true;
-    if (ref > ref_prev_ + deadband_) falling_ = false;
+    if (below(ref, ref_prev_)) falling_ = true;
+    if (above(ref, ref_prev_)) falling_ = false;
     ref_prev_ = ref;
     if (heating_ ? ref > ref_extreme_ : ref < ref_extreme_) {
-      if (abs(ref - ref_extreme_) > deadband_) moved_with_ = true;
+      if (apart(ref, ref_extreme_)) moved_with_ = true;
       ref_extreme_ = ref;
     }
-    if (moved_with_ && (heating_ ? ref < ref_extreme_ - deadband_ : ref > ref_extreme_ + deadband_)) {
+    if (moved_with_ && (heating_ ? below(ref, ref_extreme_) : above(ref, ref_extreme_))) {
       heating_ = !heating_;
       ref_extreme_ = ref;
       moved_with_ = true;  // the reference already moves with the new branch
@@ -651,7 +671,7 @@ class PreviewCore {
   // The cooling loop is built once (prepare_cooling): the reversal's update() and the PWM
   // rounding reuse it (three builds of eqs 5-11 on one tick otherwise).
   T branch_temperature(bool heat, Hysteresis<T>& h, T Tw, T r) const {
-    const T eps_t = mech_.fraction(r - d_);  // eq 14, with the offset
+    const T eps_t = fraction(r - d_);  // eq 14, with the offset
     if (heat) return max(Tw, capped(r) ? cap_T_ + T(0.1) : curves_.heat_temperature(eps_t));
     const CoolingLoop<T>& L = h.prepare_cooling();
     // Still above the end of the rise and asked to stay or go up: ride the rise (eqs 5-6);
@@ -710,7 +730,8 @@ class PreviewCore {
       // comes, unless a later plan prefers otherwise); without it only "now" switches, and
       // a switch that every new plan puts a few seconds later is never made.
       switch_due_ = 0;
-      if (commit_switch_ && best_ != kNever && best_cost_ < natural_cost_ - switch_margin_) {
+      if (SMA_PREVIEW_HOST_OPTIONS && commit_switch_ && best_ != kNever &&
+          best_cost_ < natural_cost_ - switch_margin_) {
         const long due = static_cast<long>(best_ * grid_s_ / dt_ + 0.5) - elapsed_ticks_;
         if (due <= 0) switch_branch();
         else switch_due_ = static_cast<uint16_t>(due);
@@ -725,11 +746,23 @@ class PreviewCore {
     return false;
   }
 
+  // A position (mm) clamped to the stroke; its fraction (eq 14, clamped to 0..1). (Out of line:
+  // one copy each for the tick, the plan and the observer.)
+  SMA_PREVIEW_NOINLINE T on_stroke(T x) const { return clamp(x, T(0), mech_.g); }
+  SMA_PREVIEW_NOINLINE T fraction(T x) const { return mech_.fraction(x); }
+
+  // References (mm) against the deadband: a move (apart), none (within), one down (below) or up
+  // (above) from b. (Out of line: the tick, the plan and the look share one copy each.)
+  SMA_PREVIEW_NOINLINE bool apart(T a, T b) const { return abs(a - b) > deadband_; }
+  SMA_PREVIEW_NOINLINE bool within(T a, T b) const { return abs(a - b) <= deadband_; }
+  SMA_PREVIEW_NOINLINE bool below(T a, T b) const { return a < b - deadband_; }
+  SMA_PREVIEW_NOINLINE bool above(T a, T b) const { return a > b + deadband_; }
+
   // Is reference r a hold approached on the rise (its next move is down)?
-  bool capped(T r) const { return cap_on_ && abs(r - cap_ref_) <= deadband_; }
+  bool capped(T r) const { return cap_on_ && within(r, cap_ref_); }
   // Heading up to (or at) a hold approached on the rise, below its peak: a cooling that starts
   // here would rise short of the hold (the planned switch waits for the peak).
-  bool climbs_to_cap(T r) const { return cap_on_ && !(r > cap_ref_ + deadband_) && sim_T_ < cap_T_; }
+  bool climbs_to_cap(T r) const { return cap_on_ && !above(r, cap_ref_) && sim_T_ < cap_T_; }
   // The heating has reached the peak whose rise ends at the hold. (It is driven 0.1 K past it:
   // it crosses T_i* at speed instead of creeping up to it.)
   bool at_cap(T Tw) const { return !(Tw < cap_T_); }
@@ -744,10 +777,10 @@ class PreviewCore {
       far_open_ = false;
       down_next_ = false;
       for (uint8_t i = 0, e; i < n_grid_; i = e) {
-        for (e = static_cast<uint8_t>(i + 1); e < n_grid_ && abs(r_[e] - r_[i]) <= deadband_;) ++e;
+        for (e = static_cast<uint8_t>(i + 1); e < n_grid_ && within(r_[e], r_[i]);) ++e;
         if (e - i < min_hold_) continue;  // not held 2 s
         if (e < n_grid_ && !(r_[e] < r_[i])) continue;
-        if (abs(r_[i] - hold_ref_) > deadband_) peak_T_ = T(-1);  // a new hold: start the fixed point again
+        if (apart(r_[i], hold_ref_)) peak_T_ = T(-1);  // a new hold: start the fixed point again
         hold_ref_ = r_[i];
         down_next_ = e < n_grid_;
         far_open_ = e >= n_grid_;
@@ -755,14 +788,14 @@ class PreviewCore {
       }
     } else if (far_open_) {
       const double tau = n_grid_ * grid_s_ + j_ * far_step_s_ - elapsed_ticks_ * dt_;
-      const T r = future(from_double<T>(tau));
-      if (is_finite(r) && abs(r - hold_ref_) > deadband_) {
+      const T r = ahead(future, from_double<T>(tau));
+      if (is_finite(r) && apart(r, hold_ref_)) {
         down_next_ = r < hold_ref_;
         far_open_ = false;
       }
     }
     if (!(down_next_ || far_open_)) return;
-    const T eps_t = mech_.fraction(hold_ref_ + rise_margin_ - d_);
+    const T eps_t = fraction(hold_ref_ + rise_margin_ - d_);
     if (peak_T_ < T(0)) peak_T_ = curves_.heat_temperature(eps_t);
     const T eps_i = curves_.eps_heat(peak_T_);
     const T j = curves_.start_loop(peak_T_, eps_i, true).top - eps_i;  // eqs 5-6, clamped at 1
@@ -774,8 +807,8 @@ class PreviewCore {
   void sim_step(const Future& future) {
     if (cand_ == 0) {  // the first candidate samples the future reference for all of them
       const double tau = (j_ + 1) * grid_s_ - elapsed_ticks_ * dt_;
-      const T r = future(from_double<T>(tau > 0.0 ? tau : 0.0));
-      r_[j_] = is_finite(r) ? clamp(r, T(0), mech_.g) : (j_ ? r_[j_ - 1] : T(0));
+      const T r = ahead(future, from_double<T>(tau > 0.0 ? tau : 0.0));
+      r_[j_] = is_finite(r) ? on_stroke(r) : (j_ ? r_[j_ - 1] : T(0));
     } else if (cand_ == 1 && j_ <= kFar && look_far_) {
       look_far(future);
     }
@@ -790,10 +823,10 @@ class PreviewCore {
       sim_ext_ = r;
     } else {
       if (sim_heat_ ? r > sim_ext_ : r < sim_ext_) {
-        if (abs(r - sim_ext_) > deadband_) sim_moved_ = true;
+        if (apart(r, sim_ext_)) sim_moved_ = true;
         sim_ext_ = r;
       }
-      if (sim_moved_ && (sim_heat_ ? r < sim_ext_ - deadband_ : r > sim_ext_ + deadband_)) {
+      if (sim_moved_ && (sim_heat_ ? below(r, sim_ext_) : above(r, sim_ext_))) {
         sim_heat_ = !sim_heat_;
         sim_ext_ = r;
       }
@@ -802,22 +835,26 @@ class PreviewCore {
     // Exact limits of eq 1 over one grid step: full power, or none.
     // (the observed heat loss to first order over the grid step: (k^ - 1) G grid_s / C)
     const T loss = observing() ? heat_.loss_correction() * grid_ticks_ * (sim_T_ - thermal_.T_a) : T(0);
-    const T hi = grid_step_(sim_T_, v_max_) - loss;
-    const T lo = grid_step_(sim_T_, T(0)) - loss;
+    // (No power: eq 1's passive part alone, the same number as grid_step_(sim_T_, 0).)
+    const T passive = grid_step_.passive(sim_T_);
+    const T hi = passive + grid_step_.heat(v_max_) - loss;
+    const T lo = passive - loss;
     sim_T_ = clamp(target, lo, hi);
     // Error in 0.1 mm (Q16.16 keeps its square); e^2 (1 + e^2): errors past 0.1 mm weigh more,
     // so the plan trades a long small error for a short large one the way the max metric does.
     const T e = T(10) * (mech_.displacement(sim_h_.update(sim_T_)) + d_ - r);
     const T e2 = e * e;
     const T r_before = j_ ? r_[j_ - 1] : ref_now_;
-    if (r < r_before - deadband_) sim_fall_ = true;
-    if (r > r_before + deadband_) sim_fall_ = false;
+    if (below(r, r_before)) sim_fall_ = true;
+    if (above(r, r_before)) sim_fall_ = false;
     // The mean over the horizon, not the sum: Q16.16 (max 32767) holds it for any error of the
     // stroke (e2 (1 + e2) <= ~8600 at 0.96 mm) and any cool_weight <= 100 on a grid of up to kMaxGrid steps.
     cost_ = cost_ + (sim_fall_ ? cool_w_ : T(1)) * (e2 * (T(1) + e2) * inv_n_);
     ++j_;
   }
 
+  // (The state without an initializer below is set by reset(), which the constructor calls:
+  // initializers there would be stores the AVR image makes twice.)
   PhaseCurves<T> curves_;  // a copy: its heating curve carries the learned shift
   const Thermal<T>& thermal_;
   Mechanics<T> mech_;
@@ -843,7 +880,7 @@ class PreviewCore {
   uint8_t observe_tick_ = 0;
   T obs_meas_ = T(0), obs_model_ = T(0);  // positions at the observer's last sample
   bool obs_pending_ = false;              // a sample waits for plan_step()
-  bool sample_due_ = false;               // the tick took a sample: prepare_next_tick() judges it
+  bool sample_due_;                       // the tick took a sample: prepare_next_tick() judges it
   T due_x_ = T(0), due_T_ = T(0), due_T_prev_ = T(0);  // its measurement, the model wire then and before
   T obs_x_ = T(0), obs_T_then_ = T(0);    // its measurement and model wire temperature
   T lag_ticks_;
@@ -858,43 +895,43 @@ class PreviewCore {
   T stale_offset_;                     // stale_offset_mm
   T d_step_;                           // the offset when the reference last moved (reset() sets it)
   uint16_t reapproach_after_;          // ticks above the hold before it is re-approached: 3.5 s
-  uint16_t above_ticks_ = 0;
-  bool reapproach_due_ = false;
+  uint16_t above_ticks_;
+  bool reapproach_due_;
   T x_fast_ = T(0), x_slow_ = T(0);    // the measurement low-passed over 0.2 s and 0.6 s
-  bool x_init_ = false;
+  bool x_init_;
   T held_ref_ = T(-1);
-  uint16_t held_ticks_ = 0;            // ticks the reference has held (within the deadband)
-  bool shift_due_ = false;
+  uint16_t held_ticks_;                // ticks the reference has held (within the deadband)
+  bool shift_due_;
   T shift_ = T(0);                     // K, the learned shift of the heating curve
   bool far_open_ = false;        // looking for the next move beyond the horizon
-  bool down_next_ = false;       // the hold's next move is down (the last look's verdict)
+  bool down_next_;               // the hold's next move is down (the last look's verdict)
   T hold_ref_ = T(-1), peak_T_ = T(-1);  // the hold it looked at, and its peak T_i*
-  bool cap_on_ = false;          // the verdict in use (from the last complete plan)
-  T cap_ref_ = T(-1), cap_T_ = T(0);
-  T T_prev_ = T(22);  // the model wire before its last step
+  bool cap_on_;                  // the verdict in use (from the last complete plan)
+  T cap_ref_, cap_T_;
+  T T_prev_;  // the model wire before its last step
   uint8_t switch_at_[kCandidates];
   // Model wire.
-  T T_est_ = T(22), eps_est_ = T(0), deps_ = T(0), d_ = T(0), v_ = T(0);
-  bool heating_ = true, moved_with_ = true, have_ref_ = false;
+  T T_est_, eps_est_, deps_, d_, v_;
+  bool heating_, moved_with_, have_ref_;
   bool falling_ = false;  // the reference's last move was down (the trade-off weight applies)
-  T ref_extreme_ = T(0), ref_prev_ = T(0), ref_now_ = T(0);
+  T ref_extreme_, ref_prev_ = T(0), ref_now_ = T(0);
   // Plan in progress.
   // The plan's reference samples. (Not packed into 16 bits: ~15 nm steps were enough to move
   // the planned switches at the sine's peaks, docs/control.md section 11.)
   T r_[kMaxGrid];
-  uint8_t cand_ = 0, j_ = 0, best_ = kNever;
-  uint16_t elapsed_ticks_ = 0, plans_ = 0;
-  uint16_t switch_due_ = 0;  // ticks until a planned branch switch, 0 = none
-  T best_cost_ = T(-1), natural_cost_ = T(0), cost_ = T(0), sim_T_ = T(22), sim_ext_ = T(0);
-  bool sim_heat_ = true, sim_moved_ = true, sim_fall_ = false;
+  uint8_t cand_, j_, best_;
+  uint16_t elapsed_ticks_, plans_ = 0;
+  uint16_t switch_due_;  // ticks until a planned branch switch, 0 = none
+  T best_cost_, natural_cost_ = T(0), cost_, sim_T_, sim_ext_;
+  bool sim_heat_, sim_moved_, sim_fall_;
   // The reference track_s after the next tick, sampled between ticks by plan_step().
   T lead_ = T(0);
-  bool lead_ready_ = false;
-  bool wire_pending_ = false;  // the model wire's hysteresis waits for prepare_next_tick()
+  bool lead_ready_;
+  bool wire_pending_;  // the model wire's hysteresis waits for prepare_next_tick()
   // The next tick's voltage on the cooling [0] and heating [1] branch (prepare_voltages), and
   // the hold's verdict it was computed with.
   T v_branch_[2];
-  bool voltages_ready_ = false;
+  bool voltages_ready_;
   bool pre_cap_on_ = false;
   T pre_cap_ref_ = T(0), pre_cap_T_ = T(0);
 };

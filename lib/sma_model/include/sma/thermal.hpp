@@ -91,7 +91,9 @@ struct ThermalStep {
     b = from_double<T>((1.0 - ad) / (p.R * p.conductance()));
     T_a = from_double<T>(p.T_amb + fx.ambient_offset_K);
   }
-  T operator()(T Tw, T V) const { return T_a + a * (Tw - T_a) + b * V * V; }
+  T operator()(T Tw, T V) const { return passive(Tw) + heat(V); }
+  T passive(T Tw) const { return T_a + a * (Tw - T_a); }  // no power
+  T heat(T V) const { return b * V * V; }                  // what V adds
 };
 
 // One tick of the wire's temperature under a held voltage, with the same power balance as
