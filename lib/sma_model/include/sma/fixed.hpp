@@ -974,88 +974,103 @@ inline uint32_t turns_q32(uint32_t m) {
          hi16(mul16(ml, kl) + 0x8000u) + hi16(mul16(mh, kTurnsPerRadFrac));
 }
 
-// sqrt(i / 32) - 1/2 in Q0.16 for i = 8..32: the seed table of isqrt32 (50 bytes). A static local
-// of an inline function, so every translation unit shares one copy. On the AVR it is kept in
-// flash and read with LPM: a plain const array would be copied into the 2 KB of RAM at start-up.
-#define SMA_FIXED_SQRT_SEED                                                                    \
-  {                                                                                            \
-    0, 1988, 3868, 5656, 7364, 9003, 10580, 12101, 13573, 14999, 16384, 17731, 19043, 20322,   \
-        21572, 22793, 23988, 25158, 26305, 27431, 28535, 29620, 30687, 31736, 32768            \
+// floor(sqrt(n)) for any uint32 n, exactly, and the remainder n - root^2 (<= 2 root < 2^17).
+// Digit by digit, one root bit per pair of n's bits from the top: with root R so far and the
+// next pair brought down into the remainder, the bit is 1 iff rem >= (2R + 1)^2 - (2R)^2 =
+// 4R + 1. The result is the true floor, hence monotone in n. Portable version; on the AVR the
+// reference the benchmark checks the assembly against.
+inline uint16_t isqrt32_portable(uint32_t n, uint32_t& rem) {
+  uint32_t r = 0;
+  uint32_t s = 0;  // 4 R
+  for (uint8_t i = 0; i < 16; ++i) {
+    r = (r << 2) | (n >> 30);
+    n <<= 2;
+    const bool bit = r > s;  // r >= 4 R + 1
+    if (bit) r -= s + 1u;
+    s = (s + (bit ? 2u : 0u)) << 1;  // 4 (2 R + bit); s has its two low bits clear
   }
-inline uint16_t sqrt_seed(uint8_t i) {
-#if defined(__AVR__)
-  static const uint16_t kSeed[25] __attribute__((__progmem__)) = SMA_FIXED_SQRT_SEED;
-  const uint16_t* p = &kSeed[i];
-  uint16_t v;
-  __asm__("lpm  %A0, Z+  \n\t"
-          "lpm  %B0, Z   \n\t"
-          : "=r"(v), "+z"(p));
-  return v;
-#else
-  static constexpr uint16_t kSeed[25] = SMA_FIXED_SQRT_SEED;
-  return kSeed[i];
-#endif
+  rem = r;
+  return static_cast<uint16_t>(s >> 2);
 }
-#undef SMA_FIXED_SQRT_SEED
 
-// floor(sqrt(n)) for any uint32 n, exactly, and the remainder n - root^2.
-// The digit-by-digit method costs ~650 cycles on the AVR for 16 result bits; instead:
-// normalise n to m in [1/4, 1) by an even shift, seed sqrt(m) from a 25-entry table with linear
-// interpolation (error <= 2.4e-4), take one Newton step s += (m - s^2) / (2 s) using the
-// segment slope as 1/(2 s) (error ~1e-5, i.e. within one unit after scaling back), and finish
-// with an exact integer fix-up against root^2, so the result is the true floor and therefore
-// monotone in n.
-inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
-  rem = n;
-  if (n == 0) return 0;
-  uint32_t m = n;
-  uint8_t k = 0;  // n = m / 4^k
-  if (m < (UINT32_C(1) << 16)) {
-    m <<= 16;
-    k = 8;
-  }
-  if (m < (UINT32_C(1) << 24)) {
-    m <<= 8;
-    k = static_cast<uint8_t>(k + 4);
-  }
-  if (m < (UINT32_C(1) << 28)) {
-    m <<= 4;
-    k = static_cast<uint8_t>(k + 2);
-  }
-  if (m < (UINT32_C(1) << 30)) {
-    m <<= 2;
-    k = static_cast<uint8_t>(k + 1);
-  }
-  const uint16_t m16 = hi16(m);                               // [2^14, 2^16): m in Q0.16
-  const uint8_t i = static_cast<uint8_t>((m16 >> 11) - 8u);  // segment 0..23, width 1/32
-  const uint16_t frac = static_cast<uint16_t>(m16 << 5);     // position in it, Q0.16
-  const uint16_t t0 = sqrt_seed(i);
-  const uint16_t slope = static_cast<uint16_t>(sqrt_seed(static_cast<uint8_t>(i + 1)) - t0);
-  // sqrt(m) in Q0.16; < 2^16 because the interpolation stays below the next table entry.
-  uint16_t s = static_cast<uint16_t>(32768u + t0 + hi16(mul16(slope, frac)));
-  // Newton: ds = (m - s^2) / (2 s) with 1/(2 s) ~ slope * 32 / 2^16, i.e. ds = e * slope / 2^27.
-  // |e| < 2^21 (Q0.32), so e >> 8 fits 16 bits and loses < 0.01 unit of ds.
-  const uint32_t s2 = mul16(s, s);
-  if (m >= s2) {
-    const uint16_t ds = hi16(mul16(hi16((m - s2) << 8), slope)) >> 3;
-    s = ds > 0xFFFFu - s ? 0xFFFFu : static_cast<uint16_t>(s + ds);  // sqrt(m) < 1
-  } else {
-    s = static_cast<uint16_t>(s - (hi16(mul16(hi16((s2 - m) << 8), slope)) >> 3));
-  }
-  uint16_t root = static_cast<uint16_t>(s >> k);  // sqrt(n) = sqrt(m) * 2^16 / 2^k
-  // Exact fix-up: the estimate is within a unit or two; move it to the true floor.
-  uint32_t sq = mul16(root, root);
-  while (sq > n) {
-    --root;
-    sq -= 2u * static_cast<uint32_t>(root) + 1u;
-  }
-  while (n - sq > 2u * static_cast<uint32_t>(root)) {  // (root + 1)^2 <= n
-    sq += 2u * static_cast<uint32_t>(root) + 1u;
-    ++root;
-  }
-  rem = n - sq;
-  return root;
+#if defined(__AVR__)
+// The same on the AVR in ~50 instructions (~380 cycles with the call). The first eight bits of
+// the root come from n's top two bytes with a 2-byte remainder and 4R (both < 2^11 there), the
+// last eight from its low two bytes with 3-byte ones (< 2^19): the bits of n are shifted out of
+// the top of two bytes straight into the remainder, never a 32-bit shift of n.
+__attribute__((noinline)) inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
+  uint32_t r;  // the remainder (3 bytes used)
+  uint32_t s;  // 4 R (3 bytes used); its top byte counts the steps
+  __asm__(
+      "clr  %A[r]         \n\t"
+      "clr  %B[r]         \n\t"
+      "clr  %C[r]         \n\t"
+      "clr  %D[r]         \n\t"
+      "clr  %A[s]         \n\t"
+      "clr  %B[s]         \n\t"
+      "clr  %C[s]         \n\t"
+      "ldi  %D[s], 8      \n\t"
+      "1:                 \n\t"  // bits 15..8 of the root from n's bytes 3, 2
+      "lsl  %C[n]         \n\t"
+      "rol  %D[n]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "lsl  %C[n]         \n\t"
+      "rol  %D[n]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "cp   %A[s], %A[r]  \n\t"  // 4R < r: the bit is 1
+      "cpc  %B[s], %B[r]  \n\t"
+      "brcc 2f            \n\t"
+      "sec                \n\t"  // r -= 4R + 1
+      "sbc  %A[r], %A[s]  \n\t"
+      "sbc  %B[r], %B[s]  \n\t"
+      "ori  %A[s], 2      \n\t"
+      "2:                 \n\t"
+      "lsl  %A[s]         \n\t"
+      "rol  %B[s]         \n\t"
+      "dec  %D[s]         \n\t"
+      "brne 1b            \n\t"
+      "ldi  %D[s], 8      \n\t"
+      "3:                 \n\t"  // bits 7..0 from n's bytes 1, 0
+      "lsl  %A[n]         \n\t"
+      "rol  %B[n]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "rol  %C[r]         \n\t"
+      "lsl  %A[n]         \n\t"
+      "rol  %B[n]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "rol  %C[r]         \n\t"
+      "cp   %A[s], %A[r]  \n\t"
+      "cpc  %B[s], %B[r]  \n\t"
+      "cpc  %C[s], %C[r]  \n\t"
+      "brcc 4f            \n\t"
+      "sec                \n\t"
+      "sbc  %A[r], %A[s]  \n\t"
+      "sbc  %B[r], %B[s]  \n\t"
+      "sbc  %C[r], %C[s]  \n\t"
+      "ori  %A[s], 2      \n\t"
+      "4:                 \n\t"
+      "lsl  %A[s]         \n\t"
+      "rol  %B[s]         \n\t"
+      "rol  %C[s]         \n\t"
+      "dec  %D[s]         \n\t"
+      "brne 3b            \n\t"
+      "lsr  %C[s]         \n\t"  // R = 4R / 4
+      "ror  %B[s]         \n\t"
+      "ror  %A[s]         \n\t"
+      "lsr  %C[s]         \n\t"
+      "ror  %B[s]         \n\t"
+      "ror  %A[s]         \n\t"
+      : [r] "=&r"(r), [s] "=&d"(s), [n] "+r"(n));
+  rem = r;
+  return static_cast<uint16_t>(s);
 }
+#else
+inline uint16_t isqrt32(uint32_t n, uint32_t& rem) { return isqrt32_portable(n, rem); }
+#endif
 
 // Inverse-ramp kernel: g = acos(1 - 2y) / pi = (2/pi) asin(sqrt(y)) for y in [0, 0.5], y in Q0.32
 // (y32 <= 2^31). g = sqrt(y) R(y), R a minimax fit on powers {0, 1, 2, 4} of y
