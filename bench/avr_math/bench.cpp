@@ -154,6 +154,16 @@ uint8_t self_check() {
     if (static_cast<float>(q) != static_cast<float>(a) * (1.0f / 65536.0f)) ++mismatches;
     const float f = static_cast<float>(b) * (0.0037f / 65536.0f);
     if (sma::fixed_from_float(f).raw() != sma::fixed_detail::raw_from_double(f)) ++mismatches;
+    // Every exponent (NaN, inf, saturation, zero, denormals): the shifts against the C version.
+    if (sma::fixed_detail::raw_from_float_bits(ua) !=
+        sma::fixed_detail::raw_from_float_bits_portable(ua)) {
+      ++mismatches;
+    }
+    const uint32_t near_range = (ua & 0x807FFFFFu) | ((100u + (ub & 63u)) << 23);  // e 100..163
+    if (sma::fixed_detail::raw_from_float_bits(near_range) !=
+        sma::fixed_detail::raw_from_float_bits_portable(near_range)) {
+      ++mismatches;
+    }
   }
   return static_cast<uint8_t>(mismatches > 255 ? 255 : mismatches);
 }
@@ -183,6 +193,7 @@ int main() {
   MEASURE("fixed.mul", g_xsink = (fx(g_xa, i) * fx(g_xb, i)).raw());
   MEASURE("fixed.mul_int64_ref", g_xsink = mul_via_int64(g_xa[i], g_xb[i]));
   MEASURE("fixed.div", g_xsink = (fx(g_xa, i) / fx(g_xb, i)).raw());
+  MEASURE("fixed.from_float", g_xsink = sma::fixed_from_float(g_fa[i]).raw());
   // ---- Fixed, one operand ----
   MEASURE("base.fixed1", g_xsink = g_xu[i]);
   MEASURE("fixed.cos_ramp", g_xsink = sma::cos_ramp(fx(g_xu, i)).raw());

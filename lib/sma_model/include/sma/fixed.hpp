@@ -308,7 +308,7 @@ constexpr int32_t raw_from_ulong(unsigned long v) {
 // route (a multiply, an add, three compares and a conversion, ~400 cycles) runs several times a
 // tick (the measured position, the reference); this is ~60-150. Bytes are shifted whole first
 // (a byte move) and the rest bit by bit.
-inline int32_t raw_from_float_bits(uint32_t bits) {
+inline int32_t raw_from_float_bits_portable(uint32_t bits) {
   const bool negative = (bits & kHalfQ32) != 0;
   const uint8_t e = static_cast<uint8_t>(hi16(bits) >> 7);  // biased exponent
   if (e == 0xFFu) return (bits & 0x7FFFFFu) != 0 ? 0 : saturated(negative);  // NaN, inf
@@ -334,6 +334,95 @@ inline int32_t raw_from_float_bits(uint32_t bits) {
   }
   return negative ? as_signed(UINT32_C(0) - m) : as_signed(m);
 }
+
+#if defined(__AVR__)
+// The same on the AVR in ~60 instructions (the C version: ~125, eight registers saved). The
+// right shift keeps the last bit it shifts out in the carry, which rounds; a byte move first
+// when at least 9 bits go.
+__attribute__((noinline)) inline int32_t raw_from_float_bits(uint32_t bits) {
+  uint8_t e;
+  __asm__(
+      "bst  %D[x], 7      \n\t"  // T = the sign
+      "mov  %[e], %C[x]   \n\t"
+      "lsl  %[e]          \n\t"
+      "mov  %[e], %D[x]   \n\t"
+      "rol  %[e]          \n\t"  // e = the biased exponent
+      "andi %C[x], 0x7F   \n\t"  // the mantissa's 23 bits
+      "cpi  %[e], 0xFF    \n\t"
+      "brne 1f            \n\t"
+      "or   %A[x], %B[x]  \n\t"  // NaN -> 0, inf -> saturated
+      "or   %A[x], %C[x]  \n\t"
+      "brne 8f            \n\t"
+      "rjmp 7f            \n\t"
+      "1:                 \n\t"
+      "cpi  %[e], 110     \n\t"  // |x| 2^16 < 1/2 -> 0
+      "brlo 8f            \n\t"
+      "cpi  %[e], 142     \n\t"  // |x| 2^16 >= 2^31 -> saturated
+      "brsh 7f            \n\t"
+      "ori  %C[x], 0x80   \n\t"  // m: the implicit bit
+      "clr  %D[x]         \n\t"
+      "subi %[e], 134     \n\t"  // |x| 2^16 = m 2^(e - 134)
+      "brcs 3f            \n\t"
+      "2:                 \n\t"  // up by e - 134 <= 7
+      "breq 6f            \n\t"
+      "lsl  %A[x]         \n\t"
+      "rol  %B[x]         \n\t"
+      "rol  %C[x]         \n\t"
+      "rol  %D[x]         \n\t"
+      "dec  %[e]          \n\t"
+      "rjmp 2b            \n\t"
+      "3:                 \n\t"  // down by 134 - e <= 24
+      "cpi  %[e], 0xF8    \n\t"  // 9 or more: a byte first
+      "brsh 4f            \n\t"
+      "mov  %A[x], %B[x]  \n\t"
+      "mov  %B[x], %C[x]  \n\t"
+      "clr  %C[x]         \n\t"
+      "subi %[e], 0xF8    \n\t"  // e += 8
+      "rjmp 3b            \n\t"
+      "4:                 \n\t"
+      "lsr  %D[x]         \n\t"
+      "ror  %C[x]         \n\t"
+      "ror  %B[x]         \n\t"
+      "ror  %A[x]         \n\t"
+      "inc  %[e]          \n\t"  // leaves the carry: the last bit out
+      "brne 4b            \n\t"
+      "adc  %A[x], __zero_reg__ \n\t"  // round half away from zero on the magnitude
+      "adc  %B[x], __zero_reg__ \n\t"
+      "adc  %C[x], __zero_reg__ \n\t"
+      "adc  %D[x], __zero_reg__ \n\t"
+      "6:                 \n\t"  // the sign
+      "brtc 9f            \n\t"
+      "com  %D[x]         \n\t"
+      "com  %C[x]         \n\t"
+      "com  %B[x]         \n\t"
+      "neg  %A[x]         \n\t"
+      "sbci %B[x], 0xFF   \n\t"
+      "sbci %C[x], 0xFF   \n\t"
+      "sbci %D[x], 0xFF   \n\t"
+      "rjmp 9f            \n\t"
+      "7:                 \n\t"  // saturated: 0x7FFFFFFF, + 1 when negative
+      "ldi  %A[x], 0xFF   \n\t"
+      "ldi  %B[x], 0xFF   \n\t"
+      "ldi  %C[x], 0xFF   \n\t"
+      "ldi  %D[x], 0x7F   \n\t"
+      "brtc 9f            \n\t"
+      "subi %A[x], 0xFF   \n\t"
+      "sbci %B[x], 0xFF   \n\t"
+      "sbci %C[x], 0xFF   \n\t"
+      "sbci %D[x], 0xFF   \n\t"
+      "rjmp 9f            \n\t"
+      "8:                 \n\t"
+      "clr  %A[x]         \n\t"
+      "clr  %B[x]         \n\t"
+      "clr  %C[x]         \n\t"
+      "clr  %D[x]         \n\t"
+      "9:                 \n\t"
+      : [x] "+d"(bits), [e] "=&d"(e));
+  return as_signed(bits);
+}
+#else
+inline int32_t raw_from_float_bits(uint32_t bits) { return raw_from_float_bits_portable(bits); }
+#endif
 
 // raw / 2^16 as a float, exactly as static_cast<float>(raw) * 2^-16: the power-of-two scaling
 // is a change of the exponent (|raw| >= 1 keeps it far from underflow), not a soft-float multiply.
