@@ -9,7 +9,7 @@
 //   GPIOR2 <- at the end: the number of self-check mismatches, then the 4 bytes (LSB first) of
 //             sweep::fixed_results_hash()
 // The self-check runs the AVR assembly paths of fixed.hpp (mul16, mul32x16, mulhi32, the Q16.16
-// multiply, the saturating add and subtract, the integer square root; the float <-> Q16.16
+// multiply and division, the saturating add and subtract, the integer square root; the float <-> Q16.16
 // conversions by integer shifts) against their portable C versions (the conversions: the float
 // arithmetic) on pseudo-random operands: host tests cannot execute the assembly.
 // The hash fingerprints every Fixed operation's results; sweep_host prints the host's, and the
@@ -115,6 +115,10 @@ uint8_t self_check() {
           sma::fixed_detail::sub_raw_portable(edges[i], edges[j])) {
         ++mismatches;
       }
+      if (sma::fixed_detail::div_raw(edges[i], edges[j]) !=
+          sma::fixed_detail::div_raw_portable(edges[i], edges[j])) {
+        ++mismatches;
+      }
     }
   }
   for (uint16_t i = 0; i < 20000; ++i) {
@@ -125,6 +129,7 @@ uint8_t self_check() {
     }
     if (sma::fixed_detail::add_raw(a, b) != sma::fixed_detail::add_raw_portable(a, b)) ++mismatches;
     if (sma::fixed_detail::sub_raw(a, b) != sma::fixed_detail::sub_raw_portable(a, b)) ++mismatches;
+    if (sma::fixed_detail::div_raw(a, b) != sma::fixed_detail::div_raw_portable(a, b)) ++mismatches;
     // The ADC mean's division (Fixed ratio): numerators below d 2^15.
     const uint8_t d = static_cast<uint8_t>(b) != 0 ? static_cast<uint8_t>(b) : static_cast<uint8_t>(1);
     const uint32_t n = static_cast<uint32_t>(a) % (static_cast<uint32_t>(d) << 15);

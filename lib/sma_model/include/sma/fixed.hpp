@@ -759,7 +759,7 @@ inline int32_t mul_raw(int32_t a, int32_t b) { return mul_raw_portable(a, b); }
 // overflows), so only 32 steps remain and the quotient fits 32 bits. Slower than the multiply
 // (the model precomputes reciprocals, so division is rare) but exact.
 // Division by zero saturates: max() for a >= 0, lowest() for a < 0.
-inline int32_t div_raw(int32_t a, int32_t b) {
+inline int32_t div_raw_portable(int32_t a, int32_t b) {
   if (b == 0) return saturated(a < 0);
   const bool negative = (a ^ b) < 0;
   const uint32_t ua = magnitude(a);
@@ -782,6 +782,124 @@ inline int32_t div_raw(int32_t a, int32_t b) {
   q = (q >> 1) + (q & 1u);  // round half away from zero on the magnitude
   return signed_saturated(q, negative);
 }
+
+#if defined(__AVR__)
+// The same on the AVR in one block (~65 instructions; the C version: ~160, fourteen registers
+// saved). The quotient's magnitude is at most 2^31 after rounding (the remainder starts below
+// |b|): negated it is in range, positive it saturates only at 2^31.
+__attribute__((noinline)) inline int32_t div_raw(int32_t a, int32_t b) {
+  if (b == 0) return saturated(a < 0);
+  uint32_t ua = static_cast<uint32_t>(a);  // |a|, then the dividend bits and the quotient
+  uint32_t ub = static_cast<uint32_t>(b);  // |b|
+  uint32_t r;                              // the remainder
+  uint8_t k;                               // 0xFF for the negations, then the step count
+  __asm__(
+      "mov  %[k], %D[a]   \n\t"
+      "eor  %[k], %D[b]   \n\t"
+      "bst  %[k], 7       \n\t"  // T = the quotient's sign
+      "ldi  %[k], 0xFF    \n\t"
+      "sbrs %D[a], 7      \n\t"
+      "rjmp 1f            \n\t"
+      "com  %D[a]         \n\t"
+      "com  %C[a]         \n\t"
+      "com  %B[a]         \n\t"
+      "neg  %A[a]         \n\t"
+      "sbc  %B[a], %[k]   \n\t"
+      "sbc  %C[a], %[k]   \n\t"
+      "sbc  %D[a], %[k]   \n\t"
+      "1:                 \n\t"
+      "sbrs %D[b], 7      \n\t"
+      "rjmp 2f            \n\t"
+      "com  %D[b]         \n\t"
+      "com  %C[b]         \n\t"
+      "com  %B[b]         \n\t"
+      "neg  %A[b]         \n\t"
+      "sbc  %B[b], %[k]   \n\t"
+      "sbc  %C[b], %[k]   \n\t"
+      "sbc  %D[b], %[k]   \n\t"
+      "2:                 \n\t"  // r = |a| >> 15, the dividend bits left = |a| << 17
+      "mov  %A[r], %C[a]  \n\t"
+      "mov  %B[r], %D[a]  \n\t"
+      "clr  %C[r]         \n\t"
+      "clr  %D[r]         \n\t"
+      "lsl  %A[a]         \n\t"
+      "rol  %B[a]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "rol  %C[r]         \n\t"
+      "mov  %D[a], %B[a]  \n\t"
+      "mov  %C[a], %A[a]  \n\t"
+      "clr  %B[a]         \n\t"
+      "clr  %A[a]         \n\t"
+      "cp   %A[r], %A[b]  \n\t"  // |quotient| >= 2^15: saturate
+      "cpc  %B[r], %B[b]  \n\t"
+      "cpc  %C[r], %C[b]  \n\t"
+      "cpc  %D[r], %D[b]  \n\t"
+      "brsh 7f            \n\t"
+      "ldi  %[k], 32      \n\t"
+      "3:                 \n\t"  // a step: r < |b| <= 2^31, so 2 r + 1 fits
+      "lsl  %A[a]         \n\t"
+      "rol  %B[a]         \n\t"
+      "rol  %C[a]         \n\t"
+      "rol  %D[a]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "rol  %C[r]         \n\t"
+      "rol  %D[r]         \n\t"
+      "cp   %A[r], %A[b]  \n\t"
+      "cpc  %B[r], %B[b]  \n\t"
+      "cpc  %C[r], %C[b]  \n\t"
+      "cpc  %D[r], %D[b]  \n\t"
+      "brlo 4f            \n\t"
+      "sub  %A[r], %A[b]  \n\t"
+      "sbc  %B[r], %B[b]  \n\t"
+      "sbc  %C[r], %C[b]  \n\t"
+      "sbc  %D[r], %D[b]  \n\t"
+      "inc  %A[a]         \n\t"  // the quotient bit (bit 0 is clear after the shift)
+      "4:                 \n\t"
+      "dec  %[k]          \n\t"
+      "brne 3b            \n\t"
+      "lsr  %D[a]         \n\t"  // round half away from zero on the magnitude
+      "ror  %C[a]         \n\t"
+      "ror  %B[a]         \n\t"
+      "ror  %A[a]         \n\t"
+      "adc  %A[a], __zero_reg__ \n\t"
+      "adc  %B[a], __zero_reg__ \n\t"
+      "adc  %C[a], __zero_reg__ \n\t"
+      "adc  %D[a], __zero_reg__ \n\t"
+      "brts 5f            \n\t"
+      "sbrs %D[a], 7      \n\t"  // positive: 2^31 saturates
+      "rjmp 9f            \n\t"
+      "rjmp 7f            \n\t"
+      "5:                 \n\t"  // negative: -m, -2^31 included
+      "ldi  %[k], 0xFF    \n\t"
+      "com  %D[a]         \n\t"
+      "com  %C[a]         \n\t"
+      "com  %B[a]         \n\t"
+      "neg  %A[a]         \n\t"
+      "sbc  %B[a], %[k]   \n\t"
+      "sbc  %C[a], %[k]   \n\t"
+      "sbc  %D[a], %[k]   \n\t"
+      "rjmp 9f            \n\t"
+      "7:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
+      "clr  %A[a]         \n\t"
+      "clr  %B[a]         \n\t"
+      "clr  %C[a]         \n\t"
+      "clr  %D[a]         \n\t"
+      "bld  %D[a], 7      \n\t"
+      "brts 9f            \n\t"
+      "dec  %A[a]         \n\t"
+      "dec  %B[a]         \n\t"
+      "dec  %C[a]         \n\t"
+      "dec  %D[a]         \n\t"
+      "lsr  %D[a]         \n\t"
+      "9:                 \n\t"
+      : [a] "+r"(ua), [b] "+r"(ub), [r] "=&r"(r), [k] "=&d"(k));
+  return as_signed(ua);
+}
+#else
+inline int32_t div_raw(int32_t a, int32_t b) { return div_raw_portable(a, b); }
+#endif
 
 }  // namespace fixed_detail
 
