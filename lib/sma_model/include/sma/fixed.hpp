@@ -508,45 +508,25 @@ inline int32_t mul_raw_portable(int32_t a, int32_t b) {
 }
 
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
-// The same algorithm on the AVR, where it matters (see SMA_FIXED_AVR_PRODUCT_GRID): magnitudes,
-// the byte grid of the product, rounding and saturation in one block, with the sign kept in the
-// T flag. ~130 cycles including the call. The general case of mul_raw below.
-__attribute__((noinline)) inline int32_t mul_raw_general(int32_t a, int32_t b) {
-  uint32_t ua = static_cast<uint32_t>(a);  // made |a| in place
-  uint32_t ub = static_cast<uint32_t>(b);
+// The same algorithm on the AVR, where it matters (see SMA_FIXED_AVR_PRODUCT_GRID): the byte grid
+// of the magnitudes' product, rounding and saturation in one block, with the sign (bit 7 of
+// mul_general_sign()) kept in the T flag. The general case of mul_raw below, which forms |a|, |b| and the
+// sign.
+// The sign's byte for mul_raw_general, in RAM: as a third argument it would sit in r16, which
+// mul_raw would have to save on every multiply (+4 cycles each, ~95 a tick).
+inline uint8_t& mul_general_sign() {
+  static uint8_t sign;
+  return sign;
+}
+__attribute__((noinline)) inline int32_t mul_raw_general(uint32_t ua, uint32_t ub) {
+  const uint8_t sign = mul_general_sign();
   uint32_t r;      // product bytes 2..5: the result
   uint16_t x;      // product bytes 6..7: must end up zero
   uint8_t p1;      // product byte 1 (its top bit rounds); also a scratch byte
   uint8_t zero;
   __asm__(
-      // T = sign of the result; z = 0; p1 = 0xFF for the negations.
-      "mov  %[p1], %D[a]  \n\t"
-      "eor  %[p1], %D[b]  \n\t"
-      "bst  %[p1], 7      \n\t"
+      "bst  %[s], 7       \n\t"  // T = sign of the result
       "clr  %[z]          \n\t"
-      "mov  %[p1], %[z]   \n\t"
-      "dec  %[p1]         \n\t"
-      // |a|, |b| (two's complement: com the upper bytes, neg the lowest, propagate the +1).
-      "sbrs %D[a], 7      \n\t"
-      "rjmp 1f            \n\t"
-      "com  %D[a]         \n\t"
-      "com  %C[a]         \n\t"
-      "com  %B[a]         \n\t"
-      "neg  %A[a]         \n\t"
-      "sbc  %B[a], %[p1]  \n\t"
-      "sbc  %C[a], %[p1]  \n\t"
-      "sbc  %D[a], %[p1]  \n\t"
-      "1:                 \n\t"
-      "sbrs %D[b], 7      \n\t"
-      "rjmp 2f            \n\t"
-      "com  %D[b]         \n\t"
-      "com  %C[b]         \n\t"
-      "com  %B[b]         \n\t"
-      "neg  %A[b]         \n\t"
-      "sbc  %B[b], %[p1]  \n\t"
-      "sbc  %C[b], %[p1]  \n\t"
-      "sbc  %D[b], %[p1]  \n\t"
-      "2:                 \n\t"
       SMA_FIXED_AVR_PRODUCT_GRID
       "clr  r1            \n\t"  // restore __zero_reg__
       // Round on bit 15 (top bit of byte 1); a carry out of byte 5 shows up in x.
@@ -594,8 +574,8 @@ __attribute__((noinline)) inline int32_t mul_raw_general(int32_t a, int32_t b) {
       "dec  %D[r]         \n\t"
       "lsr  %D[r]         \n\t"
       "9:                 \n\t"
-      : [r] "=&r"(r), [x] "=&r"(x), [p1] "=&r"(p1), [z] "=&r"(zero), [a] "+r"(ua), [b] "+r"(ub)
-      :
+      : [r] "=&r"(r), [x] "=&r"(x), [p1] "=&r"(p1), [z] "=&r"(zero)
+      : [a] "r"(ua), [b] "r"(ub), [s] "r"(sign)
       : "r0");
   return as_signed(r);
 }
@@ -608,11 +588,11 @@ __attribute__((noinline)) inline int32_t mul_raw_general(int32_t a, int32_t b) {
 // register, the nine products of the low bytes go to r26, r27, r30, r31 (all call-clobbered),
 // and nothing needs saving: ~75 cycles with the call. A product of bytes below 2^24 is below
 // 2^48 - 2^25, so the rounding cannot carry out of byte 5 and only the sign's range is tested.
-// Otherwise |a|, |b| are turned back into a, b and mul_raw_general does the whole grid.
+// Otherwise mul_raw_general does the whole grid of |a| and |b|.
 __attribute__((noinline)) inline int32_t mul_raw(int32_t a, int32_t b) {
   register uint32_t ra __asm__("r22") = static_cast<uint32_t>(a);
   register uint32_t rb __asm__("r18") = static_cast<uint32_t>(b);
-  register uint8_t general __asm__("r26");  // 1: the operands are a and b again, not in range
+  register uint8_t general __asm__("r26");  // not 0: out of range, bit 7 the result's sign
   __asm__(
       "mov  r26, %D[a]    \n\t"  // the signs, to undo the magnitudes on the general path
       "mov  r27, %D[b]    \n\t"
@@ -642,28 +622,9 @@ __attribute__((noinline)) inline int32_t mul_raw(int32_t a, int32_t b) {
       "mov  r30, %D[a]    \n\t"
       "or   r30, %D[b]    \n\t"
       "breq 11f           \n\t"
-      // Out of range: a and b back for the general version.
-      "sbrs r26, 7        \n\t"
-      "rjmp 8f            \n\t"
-      "com  %D[a]         \n\t"
-      "com  %C[a]         \n\t"
-      "com  %B[a]         \n\t"
-      "neg  %A[a]         \n\t"
-      "sbci %B[a], 0xFF   \n\t"
-      "sbci %C[a], 0xFF   \n\t"
-      "sbci %D[a], 0xFF   \n\t"
-      "8:                 \n\t"
-      "sbrs r27, 7        \n\t"
-      "rjmp 10f           \n\t"
-      "com  %D[b]         \n\t"
-      "com  %C[b]         \n\t"
-      "com  %B[b]         \n\t"
-      "neg  %A[b]         \n\t"
-      "sbci %B[b], 0xFF   \n\t"
-      "sbci %C[b], 0xFF   \n\t"
-      "sbci %D[b], 0xFF   \n\t"
-      "10:                \n\t"
+      // Out of range: |a|, |b| and the sign (bit 7) for the general version.
       "ldi  r26, 1        \n\t"
+      "bld  r26, 7        \n\t"
       "rjmp 9f            \n\t"
       "11:                \n\t"
       // Top bytes zero: %D[a] is the zero byte, %D[b] byte 1; bytes 2..5 in r26, r27, r30, r31.
@@ -746,7 +707,10 @@ __attribute__((noinline)) inline int32_t mul_raw(int32_t a, int32_t b) {
       : [a] "+r"(ra), [b] "+r"(rb), "=r"(general)
       :
       : "r0", "r27", "r30", "r31");
-  if (general != 0) return mul_raw_general(as_signed(ra), as_signed(rb));
+  if (general != 0) {
+    mul_general_sign() = general;
+    return mul_raw_general(ra, rb);
+  }
   return as_signed(ra);
 }
 #else
