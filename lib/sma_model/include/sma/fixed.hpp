@@ -892,8 +892,9 @@ class Fixed {
   constexpr int32_t raw() const { return raw_; }
 
 #if defined(__AVR__)
-  // double is float on the AVR: one integer conversion and an exponent change.
-  explicit operator float() const {
+  // double is float on the AVR: one integer conversion and an exponent change. Out of line:
+  // one copy for the telemetry's and the console's conversions.
+  __attribute__((noinline)) explicit operator float() const {
     const float f = static_cast<float>(raw_);
     uint32_t bits;
     __builtin_memcpy(&bits, &f, 4);
