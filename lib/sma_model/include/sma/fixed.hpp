@@ -488,6 +488,31 @@ inline int32_t add_raw(int32_t a, int32_t b) { return add_raw_portable(a, b); }
 inline int32_t sub_raw(int32_t a, int32_t b) { return sub_raw_portable(a, b); }
 #endif
 
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+// Assembly shared by the multiply and the division: x = -x (4 bytes; ff an operand holding 0xFF),
+// and x = T ? 0x80000000 : 0x7FFFFFFF, branching to `done` when T is set.
+#define SMA_FIXED_AVR_NEGATE(x, ff)                          \
+  "com  %D[" x "]  \n\t"                                     \
+  "com  %C[" x "]  \n\t"                                     \
+  "com  %B[" x "]  \n\t"                                     \
+  "neg  %A[" x "]  \n\t"                                     \
+  "sbc  %B[" x "], %[" ff "]  \n\t"                          \
+  "sbc  %C[" x "], %[" ff "]  \n\t"                          \
+  "sbc  %D[" x "], %[" ff "]  \n\t"
+#define SMA_FIXED_AVR_SATURATED(x, done)                     \
+  "clr  %A[" x "]  \n\t"                                     \
+  "clr  %B[" x "]  \n\t"                                     \
+  "clr  %C[" x "]  \n\t"                                     \
+  "clr  %D[" x "]  \n\t"                                     \
+  "bld  %D[" x "], 7  \n\t"                                  \
+  "brts " done "  \n\t"                                      \
+  "dec  %A[" x "]  \n\t"                                     \
+  "dec  %B[" x "]  \n\t"                                     \
+  "dec  %C[" x "]  \n\t"                                     \
+  "dec  %D[" x "]  \n\t"                                     \
+  "lsr  %D[" x "]  \n\t"
+#endif
+
 // Q16.16 product without a 64-bit integer type: the magnitudes' 64-bit product comes from the
 // four 16x16->32 partial products (umul32_wide_portable), the result is its bits 16..47 rounded
 // on bit 15. Working on magnitudes keeps every partial product unsigned, makes overflow a test on
@@ -547,13 +572,7 @@ __attribute__((noinline)) inline int32_t mul_raw_general(uint32_t ua, uint32_t u
       "3:                 \n\t"  // negative: r = -m
       "mov  %[p1], %[z]   \n\t"
       "dec  %[p1]         \n\t"
-      "com  %D[r]         \n\t"
-      "com  %C[r]         \n\t"
-      "com  %B[r]         \n\t"
-      "neg  %A[r]         \n\t"
-      "sbc  %B[r], %[p1]  \n\t"
-      "sbc  %C[r], %[p1]  \n\t"
-      "sbc  %D[r], %[p1]  \n\t"
+      SMA_FIXED_AVR_NEGATE("r", "p1")
       "sbrc %D[r], 7      \n\t"  // -m < 0 for 0 < m <= 2^31: done
       "rjmp 9f            \n\t"
       "mov  %[p1], %A[r]  \n\t"  // otherwise m == 0 (fine) or m > 2^31 (saturate)
@@ -562,17 +581,7 @@ __attribute__((noinline)) inline int32_t mul_raw_general(uint32_t ua, uint32_t u
       "or   %[p1], %D[r]  \n\t"
       "breq 9f            \n\t"
       "5:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
-      "clr  %A[r]         \n\t"
-      "clr  %B[r]         \n\t"
-      "clr  %C[r]         \n\t"
-      "clr  %D[r]         \n\t"
-      "bld  %D[r], 7      \n\t"
-      "brts 9f            \n\t"
-      "dec  %A[r]         \n\t"
-      "dec  %B[r]         \n\t"
-      "dec  %C[r]         \n\t"
-      "dec  %D[r]         \n\t"
-      "lsr  %D[r]         \n\t"
+      SMA_FIXED_AVR_SATURATED("r", "9f")
       "9:                 \n\t"
       : [r] "=&r"(r), [x] "=&r"(x), [p1] "=&r"(p1), [z] "=&r"(zero)
       : [a] "r"(ua), [b] "r"(ub), [s] "r"(sign)
@@ -686,17 +695,7 @@ __attribute__((noinline)) inline int32_t mul_raw(int32_t a, int32_t b) {
       "or   %D[b], r31    \n\t"
       "breq 4f            \n\t"
       "5:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
-      "clr  %A[a]         \n\t"
-      "clr  %B[a]         \n\t"
-      "clr  %C[a]         \n\t"
-      "clr  %D[a]         \n\t"
-      "bld  %D[a], 7      \n\t"
-      "brts 6f            \n\t"
-      "dec  %A[a]         \n\t"
-      "dec  %B[a]         \n\t"
-      "dec  %C[a]         \n\t"
-      "dec  %D[a]         \n\t"
-      "lsr  %D[a]         \n\t"
+      SMA_FIXED_AVR_SATURATED("a", "6f")
       "rjmp 6f            \n\t"
       "4:                 \n\t"
       "movw %A[a], r26    \n\t"
@@ -764,23 +763,11 @@ __attribute__((noinline)) inline int32_t div_raw(int32_t a, int32_t b) {
       "ldi  %[k], 0xFF    \n\t"
       "sbrs %D[a], 7      \n\t"
       "rjmp 1f            \n\t"
-      "com  %D[a]         \n\t"
-      "com  %C[a]         \n\t"
-      "com  %B[a]         \n\t"
-      "neg  %A[a]         \n\t"
-      "sbc  %B[a], %[k]   \n\t"
-      "sbc  %C[a], %[k]   \n\t"
-      "sbc  %D[a], %[k]   \n\t"
+      SMA_FIXED_AVR_NEGATE("a", "k")
       "1:                 \n\t"
       "sbrs %D[b], 7      \n\t"
       "rjmp 2f            \n\t"
-      "com  %D[b]         \n\t"
-      "com  %C[b]         \n\t"
-      "com  %B[b]         \n\t"
-      "neg  %A[b]         \n\t"
-      "sbc  %B[b], %[k]   \n\t"
-      "sbc  %C[b], %[k]   \n\t"
-      "sbc  %D[b], %[k]   \n\t"
+      SMA_FIXED_AVR_NEGATE("b", "k")
       "2:                 \n\t"  // r = |a| >> 15, the dividend bits left = |a| << 17
       "mov  %A[r], %C[a]  \n\t"
       "mov  %B[r], %D[a]  \n\t"
@@ -837,32 +824,20 @@ __attribute__((noinline)) inline int32_t div_raw(int32_t a, int32_t b) {
       "rjmp 7f            \n\t"
       "5:                 \n\t"  // negative: -m, -2^31 included
       "ldi  %[k], 0xFF    \n\t"
-      "com  %D[a]         \n\t"
-      "com  %C[a]         \n\t"
-      "com  %B[a]         \n\t"
-      "neg  %A[a]         \n\t"
-      "sbc  %B[a], %[k]   \n\t"
-      "sbc  %C[a], %[k]   \n\t"
-      "sbc  %D[a], %[k]   \n\t"
+      SMA_FIXED_AVR_NEGATE("a", "k")
       "rjmp 9f            \n\t"
       "7:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
-      "clr  %A[a]         \n\t"
-      "clr  %B[a]         \n\t"
-      "clr  %C[a]         \n\t"
-      "clr  %D[a]         \n\t"
-      "bld  %D[a], 7      \n\t"
-      "brts 9f            \n\t"
-      "dec  %A[a]         \n\t"
-      "dec  %B[a]         \n\t"
-      "dec  %C[a]         \n\t"
-      "dec  %D[a]         \n\t"
-      "lsr  %D[a]         \n\t"
+      SMA_FIXED_AVR_SATURATED("a", "9f")
       "9:                 \n\t"
       : [a] "+r"(ua), [b] "+r"(ub), [r] "=&r"(r), [k] "=&d"(k));
   return as_signed(ua);
 }
 #else
 inline int32_t div_raw(int32_t a, int32_t b) { return div_raw_portable(a, b); }
+#endif
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+#undef SMA_FIXED_AVR_NEGATE
+#undef SMA_FIXED_AVR_SATURATED
 #endif
 
 }  // namespace fixed_detail
