@@ -9,9 +9,9 @@
 //   GPIOR2 <- at the end: the number of self-check mismatches, then the 4 bytes (LSB first) of
 //             sweep::fixed_results_hash()
 // The self-check runs the AVR assembly paths of fixed.hpp (mul16, mul32x16, mulhi32, the Q16.16
-// multiply and division, the saturating add and subtract, the integer square root; the float <-> Q16.16
-// conversions by integer shifts) against their portable C versions (the conversions: the float
-// arithmetic) on pseudo-random operands: host tests cannot execute the assembly.
+// multiply and division, the saturating add and subtract, the integer square root; the float <->
+// Q16.16 conversions by integer shifts) against their portable C versions (the conversions: also
+// the float arithmetic) on pseudo-random operands: host tests cannot execute the assembly.
 // The hash fingerprints every Fixed operation's results; sweep_host prints the host's, and the
 // CTest test requires them to be equal (bit-identical results on the host and the AVR).
 //

@@ -535,10 +535,9 @@ inline int32_t mul_raw_portable(int32_t a, int32_t b) {
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
 // The same algorithm on the AVR, where it matters (see SMA_FIXED_AVR_PRODUCT_GRID): the byte grid
 // of the magnitudes' product, rounding and saturation in one block, with the sign (bit 7 of
-// mul_general_sign()) kept in the T flag. The general case of mul_raw below, which forms |a|, |b| and the
-// sign.
-// The sign's byte for mul_raw_general, in RAM: as a third argument it would sit in r16, which
-// mul_raw would have to save on every multiply (+4 cycles each, ~95 a tick).
+// mul_general_sign()) kept in the T flag. The general case of mul_raw below, which forms |a|,
+// |b| and the sign. The sign's byte is in RAM: as a third argument it would sit in r16, which
+// mul_raw would then save on every multiply (+4 cycles each, ~95 a tick).
 inline uint8_t& mul_general_sign() {
   static uint8_t sign;
   return sign;
