@@ -9,9 +9,9 @@
 //   GPIOR2 <- at the end: the number of self-check mismatches, then the 4 bytes (LSB first) of
 //             sweep::fixed_results_hash()
 // The self-check runs the AVR assembly paths of fixed.hpp (mul16, mul32x16, mulhi32, the Q16.16
-// multiply, the saturating add and subtract; the float <-> Q16.16 conversions by integer shifts)
-// against their portable C versions (the conversions: the float arithmetic) on pseudo-random
-// operands: host tests cannot execute the assembly.
+// multiply and division, the saturating add and subtract, the integer square root; the float <->
+// Q16.16 conversions by integer shifts) against their portable C versions (the conversions: also
+// the float arithmetic) on pseudo-random operands: host tests cannot execute the assembly.
 // The hash fingerprints every Fixed operation's results; sweep_host prints the host's, and the
 // CTest test requires them to be equal (bit-identical results on the host and the AVR).
 //
@@ -115,6 +115,10 @@ uint8_t self_check() {
           sma::fixed_detail::sub_raw_portable(edges[i], edges[j])) {
         ++mismatches;
       }
+      if (sma::fixed_detail::div_raw(edges[i], edges[j]) !=
+          sma::fixed_detail::div_raw_portable(edges[i], edges[j])) {
+        ++mismatches;
+      }
     }
   }
   for (uint16_t i = 0; i < 20000; ++i) {
@@ -125,6 +129,7 @@ uint8_t self_check() {
     }
     if (sma::fixed_detail::add_raw(a, b) != sma::fixed_detail::add_raw_portable(a, b)) ++mismatches;
     if (sma::fixed_detail::sub_raw(a, b) != sma::fixed_detail::sub_raw_portable(a, b)) ++mismatches;
+    if (sma::fixed_detail::div_raw(a, b) != sma::fixed_detail::div_raw_portable(a, b)) ++mismatches;
     // The ADC mean's division (Fixed ratio): numerators below d 2^15.
     const uint8_t d = static_cast<uint8_t>(b) != 0 ? static_cast<uint8_t>(b) : static_cast<uint8_t>(1);
     const uint32_t n = static_cast<uint32_t>(a) % (static_cast<uint32_t>(d) << 15);
@@ -142,12 +147,28 @@ uint8_t self_check() {
     if (sma::fixed_detail::mulhi32(ua, ub) != sma::fixed_detail::mulhi32_portable(ua, ub)) {
       ++mismatches;
     }
+    // The square root's digits.
+    uint32_t rem, rem_c;
+    if (sma::fixed_detail::isqrt32(ua, rem) != sma::fixed_detail::isqrt32_portable(ua, rem_c) ||
+        rem != rem_c) {
+      ++mismatches;
+    }
     // The run-time conversions by integer shifts against the float arithmetic they replace
     // (exact below 128, where x 2^16 + 1/2 needs no rounding in float).
     const Fixed q = Fixed::from_raw(a);
     if (static_cast<float>(q) != static_cast<float>(a) * (1.0f / 65536.0f)) ++mismatches;
     const float f = static_cast<float>(b) * (0.0037f / 65536.0f);
     if (sma::fixed_from_float(f).raw() != sma::fixed_detail::raw_from_double(f)) ++mismatches;
+    // Every exponent (NaN, inf, saturation, zero, denormals): the shifts against the C version.
+    if (sma::fixed_detail::raw_from_float_bits(ua) !=
+        sma::fixed_detail::raw_from_float_bits_portable(ua)) {
+      ++mismatches;
+    }
+    const uint32_t near_range = (ua & 0x807FFFFFu) | ((100u + (ub & 63u)) << 23);  // e 100..163
+    if (sma::fixed_detail::raw_from_float_bits(near_range) !=
+        sma::fixed_detail::raw_from_float_bits_portable(near_range)) {
+      ++mismatches;
+    }
   }
   return static_cast<uint8_t>(mismatches > 255 ? 255 : mismatches);
 }
@@ -177,6 +198,7 @@ int main() {
   MEASURE("fixed.mul", g_xsink = (fx(g_xa, i) * fx(g_xb, i)).raw());
   MEASURE("fixed.mul_int64_ref", g_xsink = mul_via_int64(g_xa[i], g_xb[i]));
   MEASURE("fixed.div", g_xsink = (fx(g_xa, i) / fx(g_xb, i)).raw());
+  MEASURE("fixed.from_float", g_xsink = sma::fixed_from_float(g_fa[i]).raw());
   // ---- Fixed, one operand ----
   MEASURE("base.fixed1", g_xsink = g_xu[i]);
   MEASURE("fixed.cos_ramp", g_xsink = sma::cos_ramp(fx(g_xu, i)).raw());

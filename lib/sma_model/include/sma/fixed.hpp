@@ -308,7 +308,7 @@ constexpr int32_t raw_from_ulong(unsigned long v) {
 // route (a multiply, an add, three compares and a conversion, ~400 cycles) runs several times a
 // tick (the measured position, the reference); this is ~60-150. Bytes are shifted whole first
 // (a byte move) and the rest bit by bit.
-inline int32_t raw_from_float_bits(uint32_t bits) {
+inline int32_t raw_from_float_bits_portable(uint32_t bits) {
   const bool negative = (bits & kHalfQ32) != 0;
   const uint8_t e = static_cast<uint8_t>(hi16(bits) >> 7);  // biased exponent
   if (e == 0xFFu) return (bits & 0x7FFFFFu) != 0 ? 0 : saturated(negative);  // NaN, inf
@@ -334,6 +334,95 @@ inline int32_t raw_from_float_bits(uint32_t bits) {
   }
   return negative ? as_signed(UINT32_C(0) - m) : as_signed(m);
 }
+
+#if defined(__AVR__)
+// The same on the AVR in ~60 instructions (the C version: ~125, eight registers saved). The
+// right shift keeps the last bit it shifts out in the carry, which rounds; a byte move first
+// when at least 9 bits go.
+__attribute__((noinline)) inline int32_t raw_from_float_bits(uint32_t bits) {
+  uint8_t e;
+  __asm__(
+      "bst  %D[x], 7      \n\t"  // T = the sign
+      "mov  %[e], %C[x]   \n\t"
+      "lsl  %[e]          \n\t"
+      "mov  %[e], %D[x]   \n\t"
+      "rol  %[e]          \n\t"  // e = the biased exponent
+      "andi %C[x], 0x7F   \n\t"  // the mantissa's 23 bits
+      "cpi  %[e], 0xFF    \n\t"
+      "brne 1f            \n\t"
+      "or   %A[x], %B[x]  \n\t"  // NaN -> 0, inf -> saturated
+      "or   %A[x], %C[x]  \n\t"
+      "brne 8f            \n\t"
+      "rjmp 7f            \n\t"
+      "1:                 \n\t"
+      "cpi  %[e], 110     \n\t"  // |x| 2^16 < 1/2 -> 0
+      "brlo 8f            \n\t"
+      "cpi  %[e], 142     \n\t"  // |x| 2^16 >= 2^31 -> saturated
+      "brsh 7f            \n\t"
+      "ori  %C[x], 0x80   \n\t"  // m: the implicit bit
+      "clr  %D[x]         \n\t"
+      "subi %[e], 134     \n\t"  // |x| 2^16 = m 2^(e - 134)
+      "brcs 3f            \n\t"
+      "2:                 \n\t"  // up by e - 134 <= 7
+      "breq 6f            \n\t"
+      "lsl  %A[x]         \n\t"
+      "rol  %B[x]         \n\t"
+      "rol  %C[x]         \n\t"
+      "rol  %D[x]         \n\t"
+      "dec  %[e]          \n\t"
+      "rjmp 2b            \n\t"
+      "3:                 \n\t"  // down by 134 - e <= 24
+      "cpi  %[e], 0xF8    \n\t"  // 9 or more: a byte first
+      "brsh 4f            \n\t"
+      "mov  %A[x], %B[x]  \n\t"
+      "mov  %B[x], %C[x]  \n\t"
+      "clr  %C[x]         \n\t"
+      "subi %[e], 0xF8    \n\t"  // e += 8
+      "rjmp 3b            \n\t"
+      "4:                 \n\t"
+      "lsr  %D[x]         \n\t"
+      "ror  %C[x]         \n\t"
+      "ror  %B[x]         \n\t"
+      "ror  %A[x]         \n\t"
+      "inc  %[e]          \n\t"  // leaves the carry: the last bit out
+      "brne 4b            \n\t"
+      "adc  %A[x], __zero_reg__ \n\t"  // round half away from zero on the magnitude
+      "adc  %B[x], __zero_reg__ \n\t"
+      "adc  %C[x], __zero_reg__ \n\t"
+      "adc  %D[x], __zero_reg__ \n\t"
+      "6:                 \n\t"  // the sign
+      "brtc 9f            \n\t"
+      "com  %D[x]         \n\t"
+      "com  %C[x]         \n\t"
+      "com  %B[x]         \n\t"
+      "neg  %A[x]         \n\t"
+      "sbci %B[x], 0xFF   \n\t"
+      "sbci %C[x], 0xFF   \n\t"
+      "sbci %D[x], 0xFF   \n\t"
+      "rjmp 9f            \n\t"
+      "7:                 \n\t"  // saturated: 0x7FFFFFFF, + 1 when negative
+      "ldi  %A[x], 0xFF   \n\t"
+      "ldi  %B[x], 0xFF   \n\t"
+      "ldi  %C[x], 0xFF   \n\t"
+      "ldi  %D[x], 0x7F   \n\t"
+      "brtc 9f            \n\t"
+      "subi %A[x], 0xFF   \n\t"
+      "sbci %B[x], 0xFF   \n\t"
+      "sbci %C[x], 0xFF   \n\t"
+      "sbci %D[x], 0xFF   \n\t"
+      "rjmp 9f            \n\t"
+      "8:                 \n\t"
+      "clr  %A[x]         \n\t"
+      "clr  %B[x]         \n\t"
+      "clr  %C[x]         \n\t"
+      "clr  %D[x]         \n\t"
+      "9:                 \n\t"
+      : [x] "+d"(bits), [e] "=&d"(e));
+  return as_signed(bits);
+}
+#else
+inline int32_t raw_from_float_bits(uint32_t bits) { return raw_from_float_bits_portable(bits); }
+#endif
 
 // raw / 2^16 as a float, exactly as static_cast<float>(raw) * 2^-16: the power-of-two scaling
 // is a change of the exponent (|raw| >= 1 keeps it far from underflow), not a soft-float multiply.
@@ -399,6 +488,31 @@ inline int32_t add_raw(int32_t a, int32_t b) { return add_raw_portable(a, b); }
 inline int32_t sub_raw(int32_t a, int32_t b) { return sub_raw_portable(a, b); }
 #endif
 
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+// Assembly shared by the multiply and the division: x = -x (4 bytes; ff an operand holding 0xFF),
+// and x = T ? 0x80000000 : 0x7FFFFFFF, branching to `done` when T is set.
+#define SMA_FIXED_AVR_NEGATE(x, ff)                          \
+  "com  %D[" x "]  \n\t"                                     \
+  "com  %C[" x "]  \n\t"                                     \
+  "com  %B[" x "]  \n\t"                                     \
+  "neg  %A[" x "]  \n\t"                                     \
+  "sbc  %B[" x "], %[" ff "]  \n\t"                          \
+  "sbc  %C[" x "], %[" ff "]  \n\t"                          \
+  "sbc  %D[" x "], %[" ff "]  \n\t"
+#define SMA_FIXED_AVR_SATURATED(x, done)                     \
+  "clr  %A[" x "]  \n\t"                                     \
+  "clr  %B[" x "]  \n\t"                                     \
+  "clr  %C[" x "]  \n\t"                                     \
+  "clr  %D[" x "]  \n\t"                                     \
+  "bld  %D[" x "], 7  \n\t"                                  \
+  "brts " done "  \n\t"                                      \
+  "dec  %A[" x "]  \n\t"                                     \
+  "dec  %B[" x "]  \n\t"                                     \
+  "dec  %C[" x "]  \n\t"                                     \
+  "dec  %D[" x "]  \n\t"                                     \
+  "lsr  %D[" x "]  \n\t"
+#endif
+
 // Q16.16 product without a 64-bit integer type: the magnitudes' 64-bit product comes from the
 // four 16x16->32 partial products (umul32_wide_portable), the result is its bits 16..47 rounded
 // on bit 15. Working on magnitudes keeps every partial product unsigned, makes overflow a test on
@@ -419,45 +533,24 @@ inline int32_t mul_raw_portable(int32_t a, int32_t b) {
 }
 
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
-// The same algorithm on the AVR, where it matters (see SMA_FIXED_AVR_PRODUCT_GRID): magnitudes,
-// the byte grid of the product, rounding and saturation in one block, with the sign kept in the
-// T flag. ~130 cycles including the call. The general case of mul_raw below.
-__attribute__((noinline)) inline int32_t mul_raw_general(int32_t a, int32_t b) {
-  uint32_t ua = static_cast<uint32_t>(a);  // made |a| in place
-  uint32_t ub = static_cast<uint32_t>(b);
+// The same algorithm on the AVR, where it matters (see SMA_FIXED_AVR_PRODUCT_GRID): the byte grid
+// of the magnitudes' product, rounding and saturation in one block, with the sign (bit 7 of
+// mul_general_sign()) kept in the T flag. The general case of mul_raw below, which forms |a|,
+// |b| and the sign. The sign's byte is in RAM: as a third argument it would sit in r16, which
+// mul_raw would then save on every multiply (+4 cycles each, ~95 a tick).
+inline uint8_t& mul_general_sign() {
+  static uint8_t sign;
+  return sign;
+}
+__attribute__((noinline)) inline int32_t mul_raw_general(uint32_t ua, uint32_t ub) {
+  const uint8_t sign = mul_general_sign();
   uint32_t r;      // product bytes 2..5: the result
   uint16_t x;      // product bytes 6..7: must end up zero
   uint8_t p1;      // product byte 1 (its top bit rounds); also a scratch byte
   uint8_t zero;
   __asm__(
-      // T = sign of the result; z = 0; p1 = 0xFF for the negations.
-      "mov  %[p1], %D[a]  \n\t"
-      "eor  %[p1], %D[b]  \n\t"
-      "bst  %[p1], 7      \n\t"
+      "bst  %[s], 7       \n\t"  // T = sign of the result
       "clr  %[z]          \n\t"
-      "mov  %[p1], %[z]   \n\t"
-      "dec  %[p1]         \n\t"
-      // |a|, |b| (two's complement: com the upper bytes, neg the lowest, propagate the +1).
-      "sbrs %D[a], 7      \n\t"
-      "rjmp 1f            \n\t"
-      "com  %D[a]         \n\t"
-      "com  %C[a]         \n\t"
-      "com  %B[a]         \n\t"
-      "neg  %A[a]         \n\t"
-      "sbc  %B[a], %[p1]  \n\t"
-      "sbc  %C[a], %[p1]  \n\t"
-      "sbc  %D[a], %[p1]  \n\t"
-      "1:                 \n\t"
-      "sbrs %D[b], 7      \n\t"
-      "rjmp 2f            \n\t"
-      "com  %D[b]         \n\t"
-      "com  %C[b]         \n\t"
-      "com  %B[b]         \n\t"
-      "neg  %A[b]         \n\t"
-      "sbc  %B[b], %[p1]  \n\t"
-      "sbc  %C[b], %[p1]  \n\t"
-      "sbc  %D[b], %[p1]  \n\t"
-      "2:                 \n\t"
       SMA_FIXED_AVR_PRODUCT_GRID
       "clr  r1            \n\t"  // restore __zero_reg__
       // Round on bit 15 (top bit of byte 1); a carry out of byte 5 shows up in x.
@@ -478,13 +571,7 @@ __attribute__((noinline)) inline int32_t mul_raw_general(int32_t a, int32_t b) {
       "3:                 \n\t"  // negative: r = -m
       "mov  %[p1], %[z]   \n\t"
       "dec  %[p1]         \n\t"
-      "com  %D[r]         \n\t"
-      "com  %C[r]         \n\t"
-      "com  %B[r]         \n\t"
-      "neg  %A[r]         \n\t"
-      "sbc  %B[r], %[p1]  \n\t"
-      "sbc  %C[r], %[p1]  \n\t"
-      "sbc  %D[r], %[p1]  \n\t"
+      SMA_FIXED_AVR_NEGATE("r", "p1")
       "sbrc %D[r], 7      \n\t"  // -m < 0 for 0 < m <= 2^31: done
       "rjmp 9f            \n\t"
       "mov  %[p1], %A[r]  \n\t"  // otherwise m == 0 (fine) or m > 2^31 (saturate)
@@ -493,20 +580,10 @@ __attribute__((noinline)) inline int32_t mul_raw_general(int32_t a, int32_t b) {
       "or   %[p1], %D[r]  \n\t"
       "breq 9f            \n\t"
       "5:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
-      "clr  %A[r]         \n\t"
-      "clr  %B[r]         \n\t"
-      "clr  %C[r]         \n\t"
-      "clr  %D[r]         \n\t"
-      "bld  %D[r], 7      \n\t"
-      "brts 9f            \n\t"
-      "dec  %A[r]         \n\t"
-      "dec  %B[r]         \n\t"
-      "dec  %C[r]         \n\t"
-      "dec  %D[r]         \n\t"
-      "lsr  %D[r]         \n\t"
+      SMA_FIXED_AVR_SATURATED("r", "9f")
       "9:                 \n\t"
-      : [r] "=&r"(r), [x] "=&r"(x), [p1] "=&r"(p1), [z] "=&r"(zero), [a] "+r"(ua), [b] "+r"(ub)
-      :
+      : [r] "=&r"(r), [x] "=&r"(x), [p1] "=&r"(p1), [z] "=&r"(zero)
+      : [a] "r"(ua), [b] "r"(ub), [s] "r"(sign)
       : "r0");
   return as_signed(r);
 }
@@ -519,11 +596,11 @@ __attribute__((noinline)) inline int32_t mul_raw_general(int32_t a, int32_t b) {
 // register, the nine products of the low bytes go to r26, r27, r30, r31 (all call-clobbered),
 // and nothing needs saving: ~75 cycles with the call. A product of bytes below 2^24 is below
 // 2^48 - 2^25, so the rounding cannot carry out of byte 5 and only the sign's range is tested.
-// Otherwise |a|, |b| are turned back into a, b and mul_raw_general does the whole grid.
+// Otherwise mul_raw_general does the whole grid of |a| and |b|.
 __attribute__((noinline)) inline int32_t mul_raw(int32_t a, int32_t b) {
   register uint32_t ra __asm__("r22") = static_cast<uint32_t>(a);
   register uint32_t rb __asm__("r18") = static_cast<uint32_t>(b);
-  register uint8_t general __asm__("r26");  // 1: the operands are a and b again, not in range
+  register uint8_t general __asm__("r26");  // not 0: out of range, bit 7 the result's sign
   __asm__(
       "mov  r26, %D[a]    \n\t"  // the signs, to undo the magnitudes on the general path
       "mov  r27, %D[b]    \n\t"
@@ -553,28 +630,9 @@ __attribute__((noinline)) inline int32_t mul_raw(int32_t a, int32_t b) {
       "mov  r30, %D[a]    \n\t"
       "or   r30, %D[b]    \n\t"
       "breq 11f           \n\t"
-      // Out of range: a and b back for the general version.
-      "sbrs r26, 7        \n\t"
-      "rjmp 8f            \n\t"
-      "com  %D[a]         \n\t"
-      "com  %C[a]         \n\t"
-      "com  %B[a]         \n\t"
-      "neg  %A[a]         \n\t"
-      "sbci %B[a], 0xFF   \n\t"
-      "sbci %C[a], 0xFF   \n\t"
-      "sbci %D[a], 0xFF   \n\t"
-      "8:                 \n\t"
-      "sbrs r27, 7        \n\t"
-      "rjmp 10f           \n\t"
-      "com  %D[b]         \n\t"
-      "com  %C[b]         \n\t"
-      "com  %B[b]         \n\t"
-      "neg  %A[b]         \n\t"
-      "sbci %B[b], 0xFF   \n\t"
-      "sbci %C[b], 0xFF   \n\t"
-      "sbci %D[b], 0xFF   \n\t"
-      "10:                \n\t"
+      // Out of range: |a|, |b| and the sign (bit 7) for the general version.
       "ldi  r26, 1        \n\t"
+      "bld  r26, 7        \n\t"
       "rjmp 9f            \n\t"
       "11:                \n\t"
       // Top bytes zero: %D[a] is the zero byte, %D[b] byte 1; bytes 2..5 in r26, r27, r30, r31.
@@ -636,17 +694,7 @@ __attribute__((noinline)) inline int32_t mul_raw(int32_t a, int32_t b) {
       "or   %D[b], r31    \n\t"
       "breq 4f            \n\t"
       "5:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
-      "clr  %A[a]         \n\t"
-      "clr  %B[a]         \n\t"
-      "clr  %C[a]         \n\t"
-      "clr  %D[a]         \n\t"
-      "bld  %D[a], 7      \n\t"
-      "brts 6f            \n\t"
-      "dec  %A[a]         \n\t"
-      "dec  %B[a]         \n\t"
-      "dec  %C[a]         \n\t"
-      "dec  %D[a]         \n\t"
-      "lsr  %D[a]         \n\t"
+      SMA_FIXED_AVR_SATURATED("a", "6f")
       "rjmp 6f            \n\t"
       "4:                 \n\t"
       "movw %A[a], r26    \n\t"
@@ -657,7 +705,10 @@ __attribute__((noinline)) inline int32_t mul_raw(int32_t a, int32_t b) {
       : [a] "+r"(ra), [b] "+r"(rb), "=r"(general)
       :
       : "r0", "r27", "r30", "r31");
-  if (general != 0) return mul_raw_general(as_signed(ra), as_signed(rb));
+  if (general != 0) {
+    mul_general_sign() = general;
+    return mul_raw_general(ra, rb);
+  }
   return as_signed(ra);
 }
 #else
@@ -670,7 +721,7 @@ inline int32_t mul_raw(int32_t a, int32_t b) { return mul_raw_portable(a, b); }
 // overflows), so only 32 steps remain and the quotient fits 32 bits. Slower than the multiply
 // (the model precomputes reciprocals, so division is rare) but exact.
 // Division by zero saturates: max() for a >= 0, lowest() for a < 0.
-inline int32_t div_raw(int32_t a, int32_t b) {
+inline int32_t div_raw_portable(int32_t a, int32_t b) {
   if (b == 0) return saturated(a < 0);
   const bool negative = (a ^ b) < 0;
   const uint32_t ua = magnitude(a);
@@ -693,6 +744,100 @@ inline int32_t div_raw(int32_t a, int32_t b) {
   q = (q >> 1) + (q & 1u);  // round half away from zero on the magnitude
   return signed_saturated(q, negative);
 }
+
+#if defined(__AVR__)
+// The same on the AVR in one block (~65 instructions; the C version: ~160, fourteen registers
+// saved). The quotient's magnitude is at most 2^31 after rounding (the remainder starts below
+// |b|): negated it is in range, positive it saturates only at 2^31.
+__attribute__((noinline)) inline int32_t div_raw(int32_t a, int32_t b) {
+  if (b == 0) return saturated(a < 0);
+  uint32_t ua = static_cast<uint32_t>(a);  // |a|, then the dividend bits and the quotient
+  uint32_t ub = static_cast<uint32_t>(b);  // |b|
+  uint32_t r;                              // the remainder
+  uint8_t k;                               // 0xFF for the negations, then the step count
+  __asm__(
+      "mov  %[k], %D[a]   \n\t"
+      "eor  %[k], %D[b]   \n\t"
+      "bst  %[k], 7       \n\t"  // T = the quotient's sign
+      "ldi  %[k], 0xFF    \n\t"
+      "sbrs %D[a], 7      \n\t"
+      "rjmp 1f            \n\t"
+      SMA_FIXED_AVR_NEGATE("a", "k")
+      "1:                 \n\t"
+      "sbrs %D[b], 7      \n\t"
+      "rjmp 2f            \n\t"
+      SMA_FIXED_AVR_NEGATE("b", "k")
+      "2:                 \n\t"  // r = |a| >> 15, the dividend bits left = |a| << 17
+      "mov  %A[r], %C[a]  \n\t"
+      "mov  %B[r], %D[a]  \n\t"
+      "clr  %C[r]         \n\t"
+      "clr  %D[r]         \n\t"
+      "lsl  %A[a]         \n\t"
+      "rol  %B[a]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "rol  %C[r]         \n\t"
+      "mov  %D[a], %B[a]  \n\t"
+      "mov  %C[a], %A[a]  \n\t"
+      "clr  %B[a]         \n\t"
+      "clr  %A[a]         \n\t"
+      "cp   %A[r], %A[b]  \n\t"  // |quotient| >= 2^15: saturate
+      "cpc  %B[r], %B[b]  \n\t"
+      "cpc  %C[r], %C[b]  \n\t"
+      "cpc  %D[r], %D[b]  \n\t"
+      "brsh 7f            \n\t"
+      "ldi  %[k], 32      \n\t"
+      "3:                 \n\t"  // a step: r < |b| <= 2^31, so 2 r + 1 fits
+      "lsl  %A[a]         \n\t"
+      "rol  %B[a]         \n\t"
+      "rol  %C[a]         \n\t"
+      "rol  %D[a]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "rol  %C[r]         \n\t"
+      "rol  %D[r]         \n\t"
+      "cp   %A[r], %A[b]  \n\t"
+      "cpc  %B[r], %B[b]  \n\t"
+      "cpc  %C[r], %C[b]  \n\t"
+      "cpc  %D[r], %D[b]  \n\t"
+      "brlo 4f            \n\t"
+      "sub  %A[r], %A[b]  \n\t"
+      "sbc  %B[r], %B[b]  \n\t"
+      "sbc  %C[r], %C[b]  \n\t"
+      "sbc  %D[r], %D[b]  \n\t"
+      "inc  %A[a]         \n\t"  // the quotient bit (bit 0 is clear after the shift)
+      "4:                 \n\t"
+      "dec  %[k]          \n\t"
+      "brne 3b            \n\t"
+      "lsr  %D[a]         \n\t"  // round half away from zero on the magnitude
+      "ror  %C[a]         \n\t"
+      "ror  %B[a]         \n\t"
+      "ror  %A[a]         \n\t"
+      "adc  %A[a], __zero_reg__ \n\t"
+      "adc  %B[a], __zero_reg__ \n\t"
+      "adc  %C[a], __zero_reg__ \n\t"
+      "adc  %D[a], __zero_reg__ \n\t"
+      "brts 5f            \n\t"
+      "sbrs %D[a], 7      \n\t"  // positive: 2^31 saturates
+      "rjmp 9f            \n\t"
+      "rjmp 7f            \n\t"
+      "5:                 \n\t"  // negative: -m, -2^31 included
+      "ldi  %[k], 0xFF    \n\t"
+      SMA_FIXED_AVR_NEGATE("a", "k")
+      "rjmp 9f            \n\t"
+      "7:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
+      SMA_FIXED_AVR_SATURATED("a", "9f")
+      "9:                 \n\t"
+      : [a] "+r"(ua), [b] "+r"(ub), [r] "=&r"(r), [k] "=&d"(k));
+  return as_signed(ua);
+}
+#else
+inline int32_t div_raw(int32_t a, int32_t b) { return div_raw_portable(a, b); }
+#endif
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+#undef SMA_FIXED_AVR_NEGATE
+#undef SMA_FIXED_AVR_SATURATED
+#endif
 
 }  // namespace fixed_detail
 
@@ -721,8 +866,9 @@ class Fixed {
   constexpr int32_t raw() const { return raw_; }
 
 #if defined(__AVR__)
-  // double is float on the AVR: one integer conversion and an exponent change.
-  explicit operator float() const {
+  // double is float on the AVR: one integer conversion and an exponent change. Out of line:
+  // one copy for the telemetry's and the console's conversions.
+  __attribute__((noinline)) explicit operator float() const {
     const float f = static_cast<float>(raw_);
     uint32_t bits;
     __builtin_memcpy(&bits, &f, 4);
@@ -974,88 +1120,117 @@ inline uint32_t turns_q32(uint32_t m) {
          hi16(mul16(ml, kl) + 0x8000u) + hi16(mul16(mh, kTurnsPerRadFrac));
 }
 
-// sqrt(i / 32) - 1/2 in Q0.16 for i = 8..32: the seed table of isqrt32 (50 bytes). A static local
-// of an inline function, so every translation unit shares one copy. On the AVR it is kept in
-// flash and read with LPM: a plain const array would be copied into the 2 KB of RAM at start-up.
-#define SMA_FIXED_SQRT_SEED                                                                    \
-  {                                                                                            \
-    0, 1988, 3868, 5656, 7364, 9003, 10580, 12101, 13573, 14999, 16384, 17731, 19043, 20322,   \
-        21572, 22793, 23988, 25158, 26305, 27431, 28535, 29620, 30687, 31736, 32768            \
+// floor(sqrt(n)) for any uint32 n, exactly, and the remainder n - root^2 (<= 2 root < 2^17).
+// Digit by digit, one root bit per pair of n's bits from the top: with root R so far and the
+// next pair brought down into the remainder, the bit is 1 iff rem >= (2R + 1)^2 - (2R)^2 =
+// 4R + 1. The result is the true floor, hence monotone in n. Portable version; on the AVR the
+// reference the benchmark checks the assembly against.
+inline uint16_t isqrt32_portable(uint32_t n, uint32_t& rem) {
+  uint32_t r = 0;
+  uint32_t s = 0;  // 4 R
+  for (uint8_t i = 0; i < 16; ++i) {
+    r = (r << 2) | (n >> 30);
+    n <<= 2;
+    const bool bit = r > s;  // r >= 4 R + 1
+    if (bit) r -= s + 1u;
+    s = (s + (bit ? 2u : 0u)) << 1;  // 4 (2 R + bit); s has its two low bits clear
   }
-inline uint16_t sqrt_seed(uint8_t i) {
-#if defined(__AVR__)
-  static const uint16_t kSeed[25] __attribute__((__progmem__)) = SMA_FIXED_SQRT_SEED;
-  const uint16_t* p = &kSeed[i];
-  uint16_t v;
-  __asm__("lpm  %A0, Z+  \n\t"
-          "lpm  %B0, Z   \n\t"
-          : "=r"(v), "+z"(p));
-  return v;
-#else
-  static constexpr uint16_t kSeed[25] = SMA_FIXED_SQRT_SEED;
-  return kSeed[i];
-#endif
+  rem = r;
+  return static_cast<uint16_t>(s >> 2);
 }
-#undef SMA_FIXED_SQRT_SEED
 
-// floor(sqrt(n)) for any uint32 n, exactly, and the remainder n - root^2.
-// The digit-by-digit method costs ~650 cycles on the AVR for 16 result bits; instead:
-// normalise n to m in [1/4, 1) by an even shift, seed sqrt(m) from a 25-entry table with linear
-// interpolation (error <= 2.4e-4), take one Newton step s += (m - s^2) / (2 s) using the
-// segment slope as 1/(2 s) (error ~1e-5, i.e. within one unit after scaling back), and finish
-// with an exact integer fix-up against root^2, so the result is the true floor and therefore
-// monotone in n.
-inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
-  rem = n;
-  if (n == 0) return 0;
-  uint32_t m = n;
-  uint8_t k = 0;  // n = m / 4^k
-  if (m < (UINT32_C(1) << 16)) {
-    m <<= 16;
-    k = 8;
-  }
-  if (m < (UINT32_C(1) << 24)) {
-    m <<= 8;
-    k = static_cast<uint8_t>(k + 4);
-  }
-  if (m < (UINT32_C(1) << 28)) {
-    m <<= 4;
-    k = static_cast<uint8_t>(k + 2);
-  }
-  if (m < (UINT32_C(1) << 30)) {
-    m <<= 2;
-    k = static_cast<uint8_t>(k + 1);
-  }
-  const uint16_t m16 = hi16(m);                               // [2^14, 2^16): m in Q0.16
-  const uint8_t i = static_cast<uint8_t>((m16 >> 11) - 8u);  // segment 0..23, width 1/32
-  const uint16_t frac = static_cast<uint16_t>(m16 << 5);     // position in it, Q0.16
-  const uint16_t t0 = sqrt_seed(i);
-  const uint16_t slope = static_cast<uint16_t>(sqrt_seed(static_cast<uint8_t>(i + 1)) - t0);
-  // sqrt(m) in Q0.16; < 2^16 because the interpolation stays below the next table entry.
-  uint16_t s = static_cast<uint16_t>(32768u + t0 + hi16(mul16(slope, frac)));
-  // Newton: ds = (m - s^2) / (2 s) with 1/(2 s) ~ slope * 32 / 2^16, i.e. ds = e * slope / 2^27.
-  // |e| < 2^21 (Q0.32), so e >> 8 fits 16 bits and loses < 0.01 unit of ds.
-  const uint32_t s2 = mul16(s, s);
-  if (m >= s2) {
-    const uint16_t ds = hi16(mul16(hi16((m - s2) << 8), slope)) >> 3;
-    s = ds > 0xFFFFu - s ? 0xFFFFu : static_cast<uint16_t>(s + ds);  // sqrt(m) < 1
-  } else {
-    s = static_cast<uint16_t>(s - (hi16(mul16(hi16((s2 - m) << 8), slope)) >> 3));
-  }
-  uint16_t root = static_cast<uint16_t>(s >> k);  // sqrt(n) = sqrt(m) * 2^16 / 2^k
-  // Exact fix-up: the estimate is within a unit or two; move it to the true floor.
-  uint32_t sq = mul16(root, root);
-  while (sq > n) {
-    --root;
-    sq -= 2u * static_cast<uint32_t>(root) + 1u;
-  }
-  while (n - sq > 2u * static_cast<uint32_t>(root)) {  // (root + 1)^2 <= n
-    sq += 2u * static_cast<uint32_t>(root) + 1u;
-    ++root;
-  }
-  rem = n - sq;
-  return root;
+#if defined(__AVR__)
+// The same on the AVR in ~60 instructions (~300 cycles with the call). The remainder and 4R grow
+// a bit a step (below 2^(k+3) in step k), so they are kept as narrow as they can be: one byte in
+// the first four steps (n's top byte), two in the next eight (its bytes 2 and 1), three in the
+// last four (its byte 0). The bits of n are shifted out of the top of those bytes straight into
+// the remainder, never a 32-bit shift of n.
+__attribute__((noinline)) inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
+  uint32_t r;  // the remainder (3 bytes used)
+  uint32_t s;  // 4 R (3 bytes used); its top byte counts the steps
+  __asm__(
+      "clr  %A[r]         \n\t"
+      "clr  %B[r]         \n\t"
+      "clr  %C[r]         \n\t"
+      "clr  %D[r]         \n\t"
+      "clr  %A[s]         \n\t"
+      "clr  %B[s]         \n\t"
+      "clr  %C[s]         \n\t"
+      "ldi  %D[s], 4      \n\t"
+      "1:                 \n\t"  // bits 15..12 of the root from n's byte 3
+      "lsl  %D[n]         \n\t"
+      "rol  %A[r]         \n\t"
+      "lsl  %D[n]         \n\t"
+      "rol  %A[r]         \n\t"
+      "cp   %A[s], %A[r]  \n\t"  // 4R < r: the bit is 1
+      "brcc 2f            \n\t"
+      "sec                \n\t"  // r -= 4R + 1
+      "sbc  %A[r], %A[s]  \n\t"
+      "ori  %A[s], 2      \n\t"
+      "2:                 \n\t"
+      "lsl  %A[s]         \n\t"
+      "dec  %D[s]         \n\t"
+      "brne 1b            \n\t"
+      "ldi  %D[s], 8      \n\t"
+      "3:                 \n\t"  // bits 11..4 from n's bytes 2, 1
+      "lsl  %B[n]         \n\t"
+      "rol  %C[n]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "lsl  %B[n]         \n\t"
+      "rol  %C[n]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "cp   %A[s], %A[r]  \n\t"
+      "cpc  %B[s], %B[r]  \n\t"
+      "brcc 4f            \n\t"
+      "sec                \n\t"
+      "sbc  %A[r], %A[s]  \n\t"
+      "sbc  %B[r], %B[s]  \n\t"
+      "ori  %A[s], 2      \n\t"
+      "4:                 \n\t"
+      "lsl  %A[s]         \n\t"
+      "rol  %B[s]         \n\t"
+      "dec  %D[s]         \n\t"
+      "brne 3b            \n\t"
+      "ldi  %D[s], 4      \n\t"
+      "5:                 \n\t"  // bits 3..0 from n's byte 0
+      "lsl  %A[n]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "rol  %C[r]         \n\t"
+      "lsl  %A[n]         \n\t"
+      "rol  %A[r]         \n\t"
+      "rol  %B[r]         \n\t"
+      "rol  %C[r]         \n\t"
+      "cp   %A[s], %A[r]  \n\t"
+      "cpc  %B[s], %B[r]  \n\t"
+      "cpc  %C[s], %C[r]  \n\t"
+      "brcc 6f            \n\t"
+      "sec                \n\t"
+      "sbc  %A[r], %A[s]  \n\t"
+      "sbc  %B[r], %B[s]  \n\t"
+      "sbc  %C[r], %C[s]  \n\t"
+      "ori  %A[s], 2      \n\t"
+      "6:                 \n\t"
+      "lsl  %A[s]         \n\t"
+      "rol  %B[s]         \n\t"
+      "rol  %C[s]         \n\t"
+      "dec  %D[s]         \n\t"
+      "brne 5b            \n\t"
+      "lsr  %C[s]         \n\t"  // R = 4R / 4
+      "ror  %B[s]         \n\t"
+      "ror  %A[s]         \n\t"
+      "lsr  %C[s]         \n\t"
+      "ror  %B[s]         \n\t"
+      "ror  %A[s]         \n\t"
+      : [r] "=&r"(r), [s] "=&d"(s), [n] "+r"(n));
+  rem = r;
+  return static_cast<uint16_t>(s);
 }
+#else
+inline uint16_t isqrt32(uint32_t n, uint32_t& rem) { return isqrt32_portable(n, rem); }
+#endif
 
 // Inverse-ramp kernel: g = acos(1 - 2y) / pi = (2/pi) asin(sqrt(y)) for y in [0, 0.5], y in Q0.32
 // (y32 <= 2^31). g = sqrt(y) R(y), R a minimax fit on powers {0, 1, 2, 4} of y
