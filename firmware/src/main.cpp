@@ -8,6 +8,7 @@
 // GPIOR0 markers (read by the virtual rig, tools/vrig, for exact cycle counts):
 //   1 = control section starts, 2 = control section ends (PWM written),
 //   3 = telemetry/console output of the tick ends.
+// GPIOR2 (preview image): ticks that cut the preview's plan passes short (sma::Board::plan_short).
 // Scalar type: float, or sma::Fixed (Q16.16) when built with -DSMA_FIRMWARE_FIXED.
 // No Arduino core: the firmware uses none of its timers (Timer0's millis ISR would only steal
 // cycles from the tick) and its own 115200-baud UART below (HardwareSerial's virtual Print
@@ -263,6 +264,23 @@ static void __attribute__((noinline)) poll_serial() {
   if (g_board.line_waiting() && line_slot_open()) g_board.handle_line();
 }
 
+#if RIG_FEATURE_PREVIEW
+// A plan pass starts only while >= 1.5 ms remain before the next tick: a grid step takes <= ~22 k
+// cycles (1.4 ms); the tick's first pass (the lead sample, <= ~44 k) comes right after the tick.
+// Timer2's count says how far into the current millisecond it is (4 us a count); a compare match
+// not yet serviced (interrupts off here) is a millisecond gone.
+static bool plan_slot_open() {
+  cli();
+  uint8_t div = g_div;
+  const uint8_t count = TCNT2;
+  if (TIFR2 & _BV(OCF2A)) ++div;
+  const bool tick_due = g_tick_pending;
+  sei();
+  const int16_t left = static_cast<int16_t>(RIG_TIMER2_DIV - 1 - div) * (RIG_TIMER2_OCR + 1) + (RIG_TIMER2_OCR + 1 - count);
+  return !tick_due && left >= 375;
+}
+#endif
+
 // ---- the tick ----------------------------------------------------------------------------------
 static void __attribute__((noinline)) control_tick() {
   GPIOR0 = 1;
@@ -326,11 +344,18 @@ static void loop() {
     // Ticks lost while the previous one ran too long (never expected: counted for status).
     if (raised > g_board.ticks() + 1u) g_board.overrun_to(raised - 1u);
     control_tick();
+#if RIG_FEATURE_PREVIEW
+    const uint16_t short_ticks = g_board.plan_short();
+    GPIOR2 = short_ticks > 0xFFu ? 0xFFu : static_cast<uint8_t>(short_ticks);
+#endif
   }
   g_board.poll();
-  // The preview's planning, one bounded step (<= ~1.4 ms) per pass while >= 2 ms remain.
+  // The preview's planning, one bounded step (<= ~1.4 ms; the tick's first <= ~2.8 ms) per pass
+  // while the slot is open, until the tick's passes are done (sma::kPlanPasses, the host's:
+  // plan() then does nothing). Ticks that came first are counted; GPIOR2 shows the count to the virtual
+  // rig (fil_preview asserts 0): written after each tick.
 #if RIG_FEATURE_PREVIEW
-  if (!g_board.line_waiting() && g_div + 2 < RIG_TIMER2_DIV && !g_tick_pending) g_board.plan();
+  if (!g_board.line_waiting() && plan_slot_open()) g_board.plan();
 #endif
 }
 

@@ -41,6 +41,7 @@ struct Bench : BoardTestBench<sma::Board<float, Rig<Preview>, BoardTestIo> > {
   std::vector<sma_host::Sample> run(const std::string& command, double seconds, int idle_plans) {
     typedef Rig<Preview> R;
     EXPECT_EQ(cmd(command).rfind("OK", 0), 0u) << command;
+    for (int i = 0; i < idle_plans; ++i) b->plan();  // the loop's time before the next tick
     std::vector<sma_host::Sample> out;
     const int n = static_cast<int>(seconds * R::tick_hz());
     for (int k = 0; k < n; ++k) {
@@ -102,7 +103,7 @@ TEST(BoardPreview, IsTheDefaultForReferences) {
 TEST(BoardPreview, TracksBetterThanInversePidOnTheBoard) {
   Bench<true> pv, fp;
   fp.cmd("mode ffpid");
-  const sma_host::Metrics ps = sma_host::sine_metrics(pv.run("sine", 100.0, 5), 50.0);
+  const sma_host::Metrics ps = sma_host::sine_metrics(pv.run("sine", 100.0, sma::kPlanPasses), 50.0);
   const sma_host::Metrics fs = sma_host::sine_metrics(fp.run("sine", 100.0, 0), 50.0);
   EXPECT_LE(ps.max_mm, 0.12);
   EXPECT_LE(ps.rms_mm, 0.05);
@@ -114,7 +115,7 @@ TEST(BoardPreview, TracksBetterThanInversePidOnTheBoard) {
   Bench<true> pv2, fp2;
   fp2.cmd("mode ffpid");
   const double steps_s = sma::Reference::multi_step().duration();
-  const sma_host::Metrics pm = sma_host::step_metrics(pv2.run("step", steps_s, 5), 25.0);
+  const sma_host::Metrics pm = sma_host::step_metrics(pv2.run("step", steps_s, sma::kPlanPasses), 25.0);
   const sma_host::Metrics fm = sma_host::step_metrics(fp2.run("step", steps_s, 0), 25.0);
   EXPECT_LE(pm.rms_mm, 0.05);
   EXPECT_LT(pm.rms_mm, fm.rms_mm);
@@ -127,6 +128,31 @@ TEST(BoardPreview, TracksBetterThanInversePidOnTheBoard) {
          "fall %.4f ww %.4f\n",
          pm.max_mm, pm.rms_mm, pm.max_fall_mm, pm.wrong_way_mm, pm.sse_mm, fm.max_mm, fm.rms_mm, fm.max_fall_mm,
          fm.wrong_way_mm);
+}
+
+// The plan is paced by ticks, not by calls (Board::plan(), sma::kPlanPasses): a loop with time for
+// more calls runs exactly the plan of one that calls kPlanPasses times, the plan the host's board
+// loop proves; a loop that runs out of time before the passes are done has each such tick counted.
+TEST(BoardPreview, ThePlanIsPacedByTicksNotByCalls) {
+  Bench<true> paced, eager;
+  const std::vector<sma_host::Sample> a = paced.run("sine", 30.0, sma::kPlanPasses);
+  const std::vector<sma_host::Sample> b = eager.run("sine", 30.0, 10);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t k = 0; k < a.size(); ++k) ASSERT_EQ(a[k].v, b[k].v) << "tick " << k;
+  ASSERT_TRUE(paced.b->controller().mode() == sma::Mode::Preview);
+  EXPECT_EQ(paced.b->plan_short(), 0u);
+  EXPECT_EQ(eager.b->plan_short(), 0u);
+  // After a tick the planning is done within kPlanPasses calls, and stays done.
+  eager.run("status", 0.01, 0);
+  int calls = 1;
+  while (!eager.b->plan()) ++calls;
+  EXPECT_LE(calls, sma::kPlanPasses);
+  EXPECT_TRUE(eager.b->plan());
+  // One call a tick: the first pass is the next tick's lead sample, no tick's planning is done
+  // (nor the passes of the command that started the sine, before tick 0).
+  Bench<true> hurried;
+  const size_t n = hurried.run("sine", 1.0, 1).size();
+  EXPECT_EQ(hurried.b->plan_short(), n);
 }
 
 // No planning time at all (plan() never called) is safe: the preview then only follows the

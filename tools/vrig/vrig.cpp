@@ -55,6 +55,7 @@ constexpr double kPlantDt = 1e-3;
 constexpr uint64_t kAdcFaultCycles = 2u * 13u * 128u;  // two conversions at prescaler 128
 // ATmega328P data-space addresses (the same on the ATmega2560).
 constexpr uint16_t kGPIOR0 = 0x3E;
+constexpr uint16_t kGPIOR2 = 0x4B;  // the preview image's plan_short count (main.cpp)
 constexpr uint16_t kTCCR1A = 0x80;
 constexpr uint16_t kICR1L = 0x86;
 constexpr uint16_t kOCR1AL = 0x88;
@@ -253,6 +254,7 @@ struct Stats {
   // Serial.
   uint64_t bytes_in = 0, bytes_out = 0;
   unsigned wdtcsr = 0;       // WDTCSR at the end of the run (ELF): the watchdog's setting
+  unsigned plan_short = 0;   // ticks that cut the preview's plan passes short (Board::plan_short, ELF: <= 255)
   uint32_t stack_free = 0;  // never-touched SRAM bytes (painted), ELF only
   uint16_t sp_min = 0xFFFF; // lowest SP set by a frame allocation (out SPL/SPH), ELF only
   uint32_t sp_min_pc = 0;
@@ -306,7 +308,7 @@ void write_json(const Options& o, const Stats& st, const char* variant, double s
           "  \"sensor_fault_s\": %.4f,\n  \"sensor_fault_visible_s\": %.6f,\n  \"heater_off_s\": %.4f,\n"
           "  \"ticks_heating_after_fault\": %llu,\n"
           "  \"uart_bytes_in\": %llu,\n  \"uart_bytes_out\": %llu,\n"
-          "  \"wdtcsr\": %u,\n"
+          "  \"wdtcsr\": %u,\n  \"plan_short_ticks\": %u,\n"
           "  \"sram_never_touched_bytes\": %u,\n  \"sp_min\": %u,\n  \"sp_min_after_setup\": %u,\n  \"sp_min_pc\": %u,\n"
           "  \"sp_min_s\": %.4f\n}\n",
           variant, sim_s, (unsigned long long)st.ticks, rate, (unsigned long long)st.ctl_max,
@@ -316,7 +318,7 @@ void write_json(const Options& o, const Stats& st, const char* variant, double s
           o.fault_at,
           st.fault_visible_cycle == UINT64_MAX ? -1.0 : st.fault_visible_cycle / static_cast<double>(kFreq),
           st.heater_off_s, (unsigned long long)st.ticks_after_fault_with_heat,
-          (unsigned long long)st.bytes_in, (unsigned long long)st.bytes_out, st.wdtcsr, st.stack_free, st.sp_min, st.sp_min_run, st.sp_min_pc, st.sp_min_s);
+          (unsigned long long)st.bytes_in, (unsigned long long)st.bytes_out, st.wdtcsr, st.plan_short, st.stack_free, st.sp_min, st.sp_min_run, st.sp_min_pc, st.sp_min_s);
   fclose(f);
 }
 
@@ -642,6 +644,7 @@ int run_avr(Rig& rig) {
     }
     rig.st.stack_free = best;
     rig.st.wdtcsr = avr->data[0x60];
+    rig.st.plan_short = avr->data[kGPIOR2];
     sp_commit(rig.st);
   }
   write_json(rig.opt, rig.st, "elf", rig.now());
@@ -700,6 +703,7 @@ int run_native(Rig& rig) {
     ++rig.st.ticks;
     loop.tick();
   }
+  rig.st.plan_short = loop.board().plan_short();
   write_json(rig.opt, rig.st, "native", n_ticks * dt);
   if (!rig.opt.eeprom.empty() && !native_eeprom_io(loop.eeprom(), rig.opt.eeprom, true)) return 2;
   return 0;

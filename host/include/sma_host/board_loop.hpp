@@ -49,7 +49,6 @@ struct BoardLoopOptions {
   double sample_s = 1e-3;     // the ADC's sample period; the plant steps at it
   double fault_at_s = -1.0;   // >= 0: from this tick on the sensor pin reads fault_mv (sensor lost)
   double fault_mv = 5000.0;
-  int plan_steps = 4;         // preview: plan() passes between ticks (the board's idle time)
 };
 
 template <class Rig, class PlantT>
@@ -99,6 +98,8 @@ class BoardLoop {
       board_->handle_line();
       if (board_->model_pending()) board_->run_model_op();
       board_->poll();
+      while (!board_->plan()) {  // a restarted preview's passes (Board::plan()), as main.cpp's loop
+      }
     }
     return lines_;
   }
@@ -109,7 +110,9 @@ class BoardLoop {
   }
 
   // One tick: the plant runs one tick at the held voltage while the ADC samples it, then the
-  // board's control section on those samples, its report, and the idle work before the next.
+  // board's control section on those samples, its report, and the idle work before the next:
+  // the preview's plan until the tick's planning is done (Board::plan(): sma::kPlanPasses, the
+  // firmware's rule too).
   Tick tick() {
     uint32_t sum = 0;
     uint8_t n = 0, bad = 0;
@@ -130,8 +133,8 @@ class BoardLoop {
     k.v = v_;
     board_->report();
     board_->poll();
-    for (int i = 0; i < opt_.plan_steps; ++i)
-      if (board_->plan()) break;
+    while (!board_->plan()) {
+    }
     ++ticks_;
     t_ = static_cast<double>(ticks_) * kDt;
     return k;

@@ -60,8 +60,9 @@ struct RunSetup {
   sma::ControllerConfig config;
   sma::PreviewConfig preview;     // Mode::Preview (dt and v_max come from config)
   // preview.plan_in_step = false: plan_step() calls after each tick's step() (the board's idle
-  // time between ticks).
-  int idle_plan_steps = 4;
+  // time between ticks) on the Controller path; the Board's runs keep the Board's rule
+  // (Board::plan(), the same default).
+  int idle_plan_steps = sma::kPlanPasses;
   sma::Mode mode = sma::Mode::FeedforwardPid;
   sma::Reference reference = sma::Reference::sine();
   Condition condition;
@@ -276,9 +277,7 @@ std::vector<Sample> run_board_loop_on(PlantT& plant, const RunSetup& s, const st
   if (fabs(s.config.dt * Rig::tick_hz() - 1.0) > 1e-9 || s.config.v_max != Rig::v_max())
     throw Error("the board ticks at " + std::to_string(static_cast<int>(Rig::tick_hz())) + " Hz with V_max " +
                 console_number(Rig::v_max(), 10) + " V (rig_config.h)");
-  BoardLoopOptions o;
-  o.plan_steps = s.idle_plan_steps;
-  BoardLoop<Rig, PlantT> loop(plant, o);
+  BoardLoop<Rig, PlantT> loop(plant);
   loop.boot();
   std::vector<std::string> lines = board_commands(s);
   lines.insert(lines.end() - (s.reference.kind == sma::RefKind::Trajectory ? 2 + s.reference.n_points : 1), extra.begin(),

@@ -57,6 +57,16 @@ inline void* operator new(size_t, void* place) noexcept { return place; }
 
 namespace sma {
 
+// The preview's plan passes after each tick (Board::plan()): the one pacing rule of the firmware,
+// the host's board loop and the tests, so the board runs what the host proves whatever its code's
+// speed. The first pass samples the next tick's lead reference, the others are grid steps
+// (PreviewController::plan_step): the grid steps a tick that plans in step() simulates
+// (PreviewConfig::steps_per_tick), one grid step less lets the sine fall behind (docs/control.md
+// section 19). On the 16 MHz AVR the passes (the lead <= ~44 k cycles, a grid step <= ~22 k) and
+// the tick (<= 16 k) fit in the 10 ms tick (160 k cycles); a tick that comes first is counted
+// (Board::plan_short()).
+constexpr uint8_t kPlanPasses = 1 + PreviewConfig().steps_per_tick;
+
 namespace detail {
 // Rig::preview(), or false for a rig that does not name the feature.
 template <class R>
@@ -229,13 +239,26 @@ class Board {
       send();
     }
     ++v_.x.ticks_;
+    if (kPreview) {  // the next tick's plan passes (plan())
+      if (v_.x.plan_left_ && preview_on() && v_.x.plan_short_ < 0xFFFFu) ++v_.x.plan_short_;
+      v_.x.plan_left_ = kPlanPasses;
+    }
     if (v_.x.fault_due_) announce_fault();
   }
 
   // Between ticks, when the caller has ~2 ms before the next one: one bounded step of the
-  // preview's plan (PreviewController::plan_step, <= ~22 k AVR cycles in float). True when a plan
-  // completed. Never from an interrupt that can preempt control().
-  SMA_NOINLINE bool plan() { return preview_on() && preview().plan_step(Future{this, static_cast<float>(live_.x.t_ref_s)}); }
+  // preview's plan (PreviewController::plan_step, <= ~22 k AVR cycles in float), at most
+  // kPlanPasses after a tick, fewer when a plan completes. True when the tick's planning is done
+  // (then a call does nothing): the caller may call it as often as its time allows. Never from an
+  // interrupt that can preempt control().
+  SMA_NOINLINE bool plan() {
+    if (!v_.x.plan_left_) return true;
+    if (!preview_on() || preview().plan_step(Future{this, static_cast<float>(live_.x.t_ref_s)})) v_.x.plan_left_ = 1;
+    return --v_.x.plan_left_ == 0;
+  }
+  // Ticks that came before the last one's planning was done (the caller ran out of time: the board
+  // then ran less plan than the host proves).
+  uint16_t plan_short() const { return v_.x.plan_short_; }
 
   // Outside the tick: a training run that ended (its storage back to a generator, the line).
   void poll() {
@@ -605,7 +628,12 @@ class Board {
     if (c.op == Op::Tlim) safety_.x.set_limit(state_.s.tlim_C);
     if (c.op == Op::Volt || c.op == Op::Train) ctl().set_voltage(from_double<T>(state_.s.volt));
     const Mode m = state_.s.active_mode();
-    if (kPreview && m == Mode::Preview && m != ctl().mode()) preview().start(ctl().wire_temperature(), v_.x.last_d_);
+    // A preview (re)started drops its lead sample: the tick's plan passes again, so that the next
+    // tick does not sample it inside the control section.
+    if (kPreview && m == Mode::Preview && m != ctl().mode()) {
+      preview().start(ctl().wire_temperature(), v_.x.last_d_);
+      v_.x.plan_left_ = kPlanPasses;
+    }
     // Leaving the preview: the controller did not step while it ran; its estimate continues
     // from the preview's (the latch and the inverse model start from it).
     if (kPreview && ctl().mode() == Mode::Preview && m != Mode::Preview)
@@ -618,6 +646,7 @@ class Board {
       start_reference();
       v_.x.run_start_ = v_.x.ticks_;
       preview().new_reference();
+      if (kPreview) v_.x.plan_left_ = kPlanPasses;
     }
     // The header once per start of the rows (tele on after off or plot).
     if (c.op == Op::Tele && state_.s.tele && !state_.s.plot && !rows_before) v_.x.header_due_ = true;
@@ -654,6 +683,8 @@ class Board {
     bool train_done_;     // "# train done" is due
     bool fault_due_;      // "# fault" is due
     bool header_due_;     // the telemetry header is due
+    uint8_t plan_left_;   // plan() passes left after this tick (0: its planning is done)
+    uint16_t plan_short_; // plan_short()
   };
   Zeroed<Vars> v_;
 };
