@@ -68,6 +68,36 @@ namespace sma {
 constexpr uint8_t kPlanPasses = 1 + PreviewConfig().steps_per_tick;
 
 namespace detail {
+// The plan's passes after each tick (Board::plan()); on a board without the preview an empty
+// base that plans nothing (no RAM).
+template <bool On>
+struct PlanPace {
+  bool pace_done() const { return true; }
+  void pace_pass(bool) {}
+  void pace_arm() {}
+  void pace_tick(bool) {}
+  uint16_t pace_short() const { return 0; }
+};
+template <>
+struct PlanPace<true> {
+  PlanPace() : left_(0), short_(0) {}
+  bool pace_done() const { return left_ == 0; }
+  // One pass; `complete`: it completed a plan (the tick's planning is done).
+  void pace_pass(bool complete) { left_ = complete ? uint8_t(0) : static_cast<uint8_t>(left_ - 1); }
+  void pace_arm() { left_ = kPlanPasses; }
+  // A tick: one that came before the last one's passes were done is counted (`planning`: the
+  // preview runs).
+  void pace_tick(bool planning) {
+    if (left_ && planning && short_ < 0xFFFFu) ++short_;
+    pace_arm();
+  }
+  uint16_t pace_short() const { return short_; }
+
+ private:
+  uint8_t left_;    // passes left after this tick (0: its planning is done)
+  uint16_t short_;  // ticks counted by pace_tick()
+};
+
 // Rig::preview(), or false for a rig that does not name the feature.
 template <class R>
 constexpr auto rig_preview(int) -> decltype(R::preview()) { return R::preview(); }
@@ -76,7 +106,7 @@ constexpr bool rig_preview(long) { return false; }
 }  // namespace detail
 
 template <class T, class Rig, class Hw>
-class Board {
+class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
  public:
   // The preview controller (sma/preview.hpp, Rig::preview()): `mode preview`, `cool W`, the
   // default for references; it plans between ticks (plan()).
@@ -239,10 +269,7 @@ class Board {
       send();
     }
     ++v_.x.ticks_;
-    if (kPreview) {  // the next tick's plan passes (plan())
-      if (v_.x.plan_left_ && preview_on() && v_.x.plan_short_ < 0xFFFFu) ++v_.x.plan_short_;
-      v_.x.plan_left_ = kPlanPasses;
-    }
+    this->pace_tick(preview_on());  // the next tick's plan passes (plan())
     if (v_.x.fault_due_) announce_fault();
   }
 
@@ -252,13 +279,13 @@ class Board {
   // (then a call does nothing): the caller may call it as often as its time allows. Never from an
   // interrupt that can preempt control().
   SMA_NOINLINE bool plan() {
-    if (!v_.x.plan_left_) return true;
-    if (!preview_on() || preview().plan_step(Future{this, static_cast<float>(live_.x.t_ref_s)})) v_.x.plan_left_ = 1;
-    return --v_.x.plan_left_ == 0;
+    if (this->pace_done()) return true;
+    this->pace_pass(!preview_on() || preview().plan_step(Future{this, static_cast<float>(live_.x.t_ref_s)}));
+    return this->pace_done();
   }
   // Ticks that came before the last one's planning was done (the caller ran out of time: the board
   // then ran less plan than the host proves).
-  uint16_t plan_short() const { return v_.x.plan_short_; }
+  uint16_t plan_short() const { return this->pace_short(); }
 
   // Outside the tick: a training run that ended (its storage back to a generator, the line).
   void poll() {
@@ -632,7 +659,7 @@ class Board {
     // tick does not sample it inside the control section.
     if (kPreview && m == Mode::Preview && m != ctl().mode()) {
       preview().start(ctl().wire_temperature(), v_.x.last_d_);
-      v_.x.plan_left_ = kPlanPasses;
+      this->pace_arm();
     }
     // Leaving the preview: the controller did not step while it ran; its estimate continues
     // from the preview's (the latch and the inverse model start from it).
@@ -646,7 +673,7 @@ class Board {
       start_reference();
       v_.x.run_start_ = v_.x.ticks_;
       preview().new_reference();
-      if (kPreview) v_.x.plan_left_ = kPlanPasses;
+      this->pace_arm();
     }
     // The header once per start of the rows (tele on after off or plot).
     if (c.op == Op::Tele && state_.s.tele && !state_.s.plot && !rows_before) v_.x.header_due_ = true;
@@ -683,8 +710,6 @@ class Board {
     bool train_done_;     // "# train done" is due
     bool fault_due_;      // "# fault" is due
     bool header_due_;     // the telemetry header is due
-    uint8_t plan_left_;   // plan() passes left after this tick (0: its planning is done)
-    uint16_t plan_short_; // plan_short()
   };
   Zeroed<Vars> v_;
 };
