@@ -25,17 +25,29 @@ LABEL = re.compile(r"^([0-9a-f]+) <(.+)>:$")
 CALL = re.compile(r"\s(?:call|rcall|jmp|rjmp)\s+[^<]*<([^>+]+)>")
 
 
-def members(elf):
+def symbols(elf):
+    """name -> (address, size) of every sized function."""
     out = subprocess.run(["avr-nm", "-S", elf], check=True, capture_output=True, text=True).stdout
-    sizes = {}
+    syms = {}
     for line in out.splitlines():
         f = line.split()
-        if len(f) == 4 and f[2] in "tTwW" and MEMBER.match(f[3]):
-            sizes[f[3]] = int(f[1], 16)
-    return sizes
+        if len(f) == 4 and f[2] in "tTwW":
+            syms[f[3]] = (int(f[0], 16), int(f[1], 16))
+    return syms
 
 
-def callers(elf, soft):
+def linked_bytes(elf):
+    """The libm float sections the linker kept (its map, when next to the ELF), or None.
+
+    avr-nm's sizes of the assembly members overlap and miss unlabelled parts; the map does not."""
+    for m in (elf + ".map", elf[:-4] + ".first.elf.map"):
+        if os.path.exists(m):
+            text = open(m).read()
+            return sum(int(s, 16) for s in re.findall(r"\.text\.avr-libc\.fplib\s+0x[0-9a-f]+\s+(0x[0-9a-f]+)", text))
+    return None
+
+
+def callers(elf, soft, syms):
     dis = subprocess.run(["avr-objdump", "-d", elf], check=True, capture_output=True, text=True).stdout
     calls = collections.defaultdict(collections.Counter)
     cur = None
@@ -43,7 +55,12 @@ def callers(elf, soft):
         m = LABEL.match(line)
         if m:
             cur = m.group(2)
+            start, size = syms.get(cur, (0, 1 << 20))
             continue
+        # Past the end of its label's symbol: libm code that has no symbol of its own.
+        addr = line.split(":", 1)[0].strip()
+        if cur and re.fullmatch(r"[0-9a-f]+", addr) and int(addr, 16) >= start + size:
+            cur = None
         m = CALL.search(line)
         if m and cur and not MEMBER.match(cur) and MEMBER.match(m.group(1)) and m.group(1) in soft:
             calls[cur][m.group(1)] += 1
@@ -71,11 +88,14 @@ def main():
     for elf in elves:
         if not os.path.exists(elf):
             sys.exit(f"{elf}: not built")
-        soft = members(elf)
-        who = callers(elf, soft)
+        syms = symbols(elf)
+        soft = {n: s for n, (a, s) in syms.items() if MEMBER.match(n)}
+        who = callers(elf, soft, syms)
         name = os.path.splitext(os.path.basename(elf))[0]
-        result[name] = {"members_B": sum(soft.values()), "members": soft, "callers": who}
-        print(f"\n{name}: {len(soft)} soft-float members, {sum(soft.values())} B")
+        linked = linked_bytes(elf)
+        result[name] = {"members": soft, "fplib_B": linked, "callers": who}
+        print(f"\n{name}: {len(soft)} soft-float members, libm float sections {linked} B (map), "
+              f"{len(who)} functions call them")
         print("| caller | calls | into |\n|---|---|---|")
         for c, ops in sorted(who.items(), key=lambda kv: -sum(kv[1].values())):
             into = ", ".join(f"{o.strip('_')} {n}" for o, n in sorted(ops.items(), key=lambda kv: -kv[1]))
