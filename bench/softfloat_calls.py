@@ -2,10 +2,11 @@
 """What an AVR image pays for its soft float, and who calls it (issue 12, item 4).
 
 The soft-float members (avr-libc's libm: __addsf3 .. __fp_*) stay linked while any function of
-the image calls one of them, so the Q16.16 image loses them (~1.1 KB) only when its last caller
-goes. This prints, per ELF, the members with their sizes (avr-nm -S) and every function that
-calls one (avr-objdump -d: CALL/RCALL/JMP/RJMP targets), with the calls per member, so that a
-step that removes a group of callers shows what is left.
+the image calls one of them, so the Q16.16 image loses them (1078 B of libm's float sections)
+only when its last caller goes. This prints, per ELF, the bytes of those sections (from the link
+map next to the ELF) and every function that calls a member (avr-objdump -d: CALL/RCALL/JMP/RJMP
+targets), with the calls per member, so that a step that removes a group of callers shows what
+is left; --json also keeps each member's avr-nm size.
 
   python3 bench/softfloat_calls.py --build build [--json build/bench-results/softfloat.json]
 """
