@@ -64,7 +64,8 @@ namespace sma {
 // (PreviewConfig::steps_per_tick), one grid step less lets the sine fall behind (docs/control.md
 // section 19). On the 16 MHz AVR the passes (the lead <= ~44 k cycles, a grid step <= ~22 k) and
 // the tick (<= 16 k) fit in the 10 ms tick (160 k cycles); a tick that comes first is counted
-// (Board::plan_short()).
+// (Board::plan_short()). (From the default config's steps_per_tick: the board's preview runs the
+// default config.)
 constexpr uint8_t kPlanPasses = 1 + PreviewConfig().steps_per_tick;
 
 namespace detail {
