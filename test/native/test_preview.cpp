@@ -261,7 +261,13 @@ TEST(PreviewConfig, OutOfRangeSettingsAreRefusedByName) {
                      {&sma::PreviewConfig::lookahead_s, NAN, "lookahead_s"},
                      {&sma::PreviewConfig::rise_margin_mm, -0.001, "rise_margin_mm"},
                      {&sma::PreviewConfig::rise_margin_mm, 0.5, "rise_margin_mm"},
-                     {&sma::PreviewConfig::cool_weight, 101.0, "cool_weight"}};
+                     {&sma::PreviewConfig::cool_weight, 101.0, "cool_weight"},
+                     {&sma::PreviewConfig::lag_guard_mm, 0.2, "lag_guard_mm"},
+                     {&sma::PreviewConfig::curve_shift_tau_s, 0.001, "curve_shift_tau_s"},  // below dt
+                     {&sma::PreviewConfig::reapproach_mm, -0.01, "reapproach_mm"},
+                     {&sma::PreviewConfig::reapproach_mm, NAN, "reapproach_mm"},
+                     {&sma::PreviewConfig::stale_offset_mm, 2.0, "stale_offset_mm"},
+                     {&sma::PreviewConfig::stale_offset_mm, NAN, "stale_offset_mm"}};
   for (const Bad& b : bad) {
     sma::PreviewConfig c;
     c.*b.field = b.value;
