@@ -751,15 +751,15 @@ class PreviewCore {
   SMA_PREVIEW_NOINLINE T on_stroke(T x) const { return clamp(x, T(0), mech_.g); }
   SMA_PREVIEW_NOINLINE T fraction(T x) const { return mech_.fraction(x); }
 
-  // References (mm) against the deadband: a move (apart), none (within), one down (below) or up
-  // (above) from b. (Out of line: the tick, the plan and the look share one copy each.)
+  // References (mm) against the deadband: a move (apart; none: !apart, every reference here is
+  // finite), one down (below) or up (above) from b. (Out of line: the tick, the plan and the look
+  // share one copy each.)
   SMA_PREVIEW_NOINLINE bool apart(T a, T b) const { return abs(a - b) > deadband_; }
-  SMA_PREVIEW_NOINLINE bool within(T a, T b) const { return abs(a - b) <= deadband_; }
   SMA_PREVIEW_NOINLINE bool below(T a, T b) const { return a < b - deadband_; }
   SMA_PREVIEW_NOINLINE bool above(T a, T b) const { return a > b + deadband_; }
 
   // Is reference r a hold approached on the rise (its next move is down)?
-  bool capped(T r) const { return cap_on_ && within(r, cap_ref_); }
+  bool capped(T r) const { return cap_on_ && !apart(r, cap_ref_); }
   // Heading up to (or at) a hold approached on the rise, below its peak: a cooling that starts
   // here would rise short of the hold (the planned switch waits for the peak).
   bool climbs_to_cap(T r) const { return cap_on_ && !above(r, cap_ref_) && sim_T_ < cap_T_; }
@@ -777,7 +777,7 @@ class PreviewCore {
       far_open_ = false;
       down_next_ = false;
       for (uint8_t i = 0, e; i < n_grid_; i = e) {
-        for (e = static_cast<uint8_t>(i + 1); e < n_grid_ && within(r_[e], r_[i]);) ++e;
+        for (e = static_cast<uint8_t>(i + 1); e < n_grid_ && !apart(r_[e], r_[i]);) ++e;
         if (e - i < min_hold_) continue;  // not held 2 s
         if (e < n_grid_ && !(r_[e] < r_[i])) continue;
         if (apart(r_[i], hold_ref_)) peak_T_ = T(-1);  // a new hold: start the fixed point again
