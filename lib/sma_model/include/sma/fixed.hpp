@@ -920,8 +920,14 @@ inline Fixed operator-(Fixed a, Fixed b) { return a -= b; }
 inline Fixed operator*(Fixed a, Fixed b) { return a *= b; }
 inline Fixed operator/(Fixed a, Fixed b) { return a /= b; }
 constexpr Fixed operator+(Fixed a) { return a; }
-// -lowest() saturates to max(): the range is asymmetric by one LSB.
-constexpr Fixed operator-(Fixed a) {
+// -lowest() saturates to max(): the range is asymmetric by one LSB. Out of line on the AVR: one
+// copy instead of one per use (-60 B of the Q16.16 image, +3 cycles of its control section).
+#if defined(__AVR__)
+__attribute__((noinline)) inline
+#else
+constexpr
+#endif
+Fixed operator-(Fixed a) {
   return Fixed::from_raw(a.raw() == fixed_detail::kRawMin ? fixed_detail::kRawMax : -a.raw());
 }
 
