@@ -355,6 +355,25 @@ TEST(FixedArithmetic, WorksWithTheGenericScalarHelpers) {
   EXPECT_TRUE(sma::is_finite(Fixed(1) / Fixed(0)));
 }
 
+// min, max and clamp of Fixed (fixed.hpp's overloads on the raw values) order the numbers as the
+// reals they stand for, across the whole range (signs, the saturation edges, equal operands).
+TEST(FixedArithmetic, MinMaxClampFollowTheOrderOfTheValues) {
+  for (int32_t a : kEdges) {
+    for (int32_t b : kEdges) {
+      const Fixed x = Fixed::from_raw(a), y = Fixed::from_raw(b);
+      const double dx = static_cast<double>(x), dy = static_cast<double>(y);
+      ASSERT_EQ(static_cast<double>(sma::min(x, y)), dx < dy ? dx : dy);
+      ASSERT_EQ(static_cast<double>(sma::max(x, y)), dx < dy ? dy : dx);
+      if (dx > dy) continue;  // clamp needs lo <= hi
+      for (int32_t v : kEdges) {
+        const double dv = static_cast<double>(Fixed::from_raw(v));
+        const double want = dv < dx ? dx : dv > dy ? dy : dv;
+        ASSERT_EQ(static_cast<double>(sma::clamp(Fixed::from_raw(v), x, y)), want) << a << " " << b << " " << v;
+      }
+    }
+  }
+}
+
 // ---- building blocks shared with the AVR paths ------------------------------------------------
 
 // On the host these are the portable versions; bench/avr_math checks the AVR assembly against
