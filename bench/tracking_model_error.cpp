@@ -164,7 +164,8 @@ int main(int argc, char** argv) {
                  "\"controller\": \"%s\", \"max_mm\": %.6f, \"rms_mm\": %.6f, \"max_fall_mm\": %.6f, "
                  "\"wrong_way_mm\": %.6f, \"wrong_way_before_mm\": %.6f, \"sse_mm\": %.6f, \"overshoot_mm\": %.6f}%s\n",
                  r.kase.c_str(), r.test.c_str(), r.scalar, r.controller.c_str(), r.m.max_mm, r.m.rms_mm,
-                 r.m.max_fall_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm, r.m.sse_mm, r.overshoot_mm, i + 1 < rows.size() ? "," : "");
+                 r.m.max_fall_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm, r.m.sse_mm, r.overshoot_mm,
+                 i + 1 < rows.size() ? "," : "");
   }
   std::fprintf(f, "  ]\n}\n");
   std::fclose(f);
