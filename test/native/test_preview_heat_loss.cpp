@@ -132,6 +132,33 @@ TEST(PreviewHeatLoss, FixedModelHOffTenPercentHoldsTheSetpoints) {
   holds_the_setpoints_with_h_off<sma::Fixed>("Q16.16");
 }
 
+// The preview's gain in closed loop (rig-like multi-step, model h 10 % off either way), once a
+// second: Q16.16 learns what double learns. From 30 s on (the first steps' samples fall on other
+// ticks in the two scalars) within 0.005 of double's gain, and 1 / 0.9 or 1 / 1.1 within 3 %.
+template <class T>
+std::vector<double> closed_loop_gain(double h_scale) {
+  const sma_host::RunSetup s = closed_loop(false, h_scale, true);
+  sma::Plant plant(s.plant_params, s.plant_effects, s.condition.rig);
+  std::vector<double> gain;
+  int tick = 0;
+  sma_host::run_preview_loop_on<T>(plant, s, [&](const sma::PreviewController<T>& c) {
+    if (++tick % 100 == 0) gain.push_back(sma::to_double(c.heat_loss_gain()));
+  });
+  return gain;
+}
+
+TEST(PreviewHeatLoss, FixedGainInClosedLoopFollowsDouble) {
+  for (double h_scale : {0.9, 1.1}) {
+    const std::vector<double> d = closed_loop_gain<double>(h_scale), x = closed_loop_gain<sma::Fixed>(h_scale);
+    ASSERT_EQ(d.size(), x.size());
+    ASSERT_GT(x.size(), 100u);
+    EXPECT_NEAR(x.back(), 1.0 / h_scale, 0.03 / h_scale) << "model h x" << h_scale;
+    double worst = 0.0;
+    for (size_t i = 30; i < d.size(); ++i) worst = std::max(worst, std::fabs(x[i] - d[i]));
+    EXPECT_LE(worst, 0.005) << "model h x" << h_scale;
+  }
+}
+
 // With the exact model the observer changes nothing (its estimate stays in the dead zone), in
 // float and in Q16.16.
 template <class T>
