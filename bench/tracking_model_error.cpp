@@ -2,7 +2,9 @@
 // and T_AF shifted, h or g scaled, or plant B as the wire), (b) a wire with latent heat and
 // models of it from none to exact, (c) the end-to-end flow's wire (tools/vrig/e2e_flow.py WIRE:
 // a hidden non-linear convection) with the model `sma fit` leaves without that effect. Rig-like, float (the firmware's scalar), default settings
-// of every controller (console::default_gains, PreviewConfig()), true position, whole run.
+// of every controller (console::default_gains, PreviewConfig()), true position, whole run. The
+// preview also in Q16.16 (the Uno's scalar) on the exact model and the wrong-h wires: its
+// heat-loss observer (heat_gain.hpp) against float's.
 // The steps' figures that matter here: SSE (zero steady-state error with a model that is not
 // the plant), RMS against PID alone, and the up/down-step overshoot within 10 s of a step.
 // Prints a Markdown table and writes JSON.
@@ -13,6 +15,7 @@
 #include <string>
 #include <vector>
 #include "sma/console.hpp"
+#include "sma/fixed.hpp"
 #include "sma_host/e2e_wire.hpp"
 #include "sma_host/metrics.hpp"
 #include "sma_host/plant_b_rig.hpp"
@@ -35,13 +38,15 @@ struct Row {
   std::string kase, test, controller;
   Metrics m;
   double overshoot_mm;
+  const char* scalar;
 };
 
+template <class T = float>
 std::vector<sma_host::Sample> run(const Case& c, const RunSetup& s) {
-  if (!c.plant_b) return sma_host::run_closed_loop<float>(s);
+  if (!c.plant_b) return sma_host::run_closed_loop<T>(s);
   sma_host::plant_b::Wire w;
   sma_host::plant_b::RigB rig(w, sma_host::plant_b::WireEffects(), s.condition.rig, s.config.dt);
-  return sma_host::run_closed_loop_on<float>(rig, s);
+  return sma_host::run_closed_loop_on<T>(rig, s);
 }
 
 std::vector<Case> cases() {
@@ -94,32 +99,38 @@ int main(int argc, char** argv) {
   }
   const sma::Mode modes[] = {sma::Mode::Pid, sma::Mode::FeedforwardPid, sma::Mode::Preview};
   const std::vector<Case> cs = cases();
-  std::vector<Row> rows;
+  // The Q16.16 preview on the cases its heat-loss observer is for (and the exact model).
+  const size_t fixed_cases[] = {0, 3, 4};
+  std::vector<Row> rows, fixed_rows;
   int done = 0;
+  const int total = static_cast<int>(cs.size() * 6 + 2 * (sizeof fixed_cases / sizeof fixed_cases[0]));
   sma_host::CaseLine progress;
+  auto one = [&](const Case& c, int sine, sma::Mode mode, bool fixed) {
+    progress("[%2d/%2d] %s%s", ++done, total, c.name.c_str(), fixed ? " (Q16.16)" : "");
+    RunSetup s;
+    s.mode = mode;
+    s.condition = sma_host::Condition::rig_like();
+    s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
+    s.plant_params = c.plant;
+    s.model_params = c.model;
+    s.plant_effects = c.plant_fx;
+    s.model_effects = c.model_fx;
+    if (mode != sma::Mode::Preview) s.config.gains = sma::console::default_gains(mode);
+    const std::vector<sma_host::Sample> r = fixed ? run<sma::Fixed>(c, s) : run(c, s);
+    Row row{c.name, sine ? "sine" : "multi-step", sma::mode_name(mode), Metrics(), 0.0, fixed ? "fixed" : "float"};
+    if (sine) {
+      row.m = sma_host::sine_metrics(r, s.reference.sine_period_s);
+    } else {
+      row.m = sma_host::step_metrics(r, s.reference.step_s);
+      row.overshoot_mm = sma_host::step_overshoot_mm(r, s.reference.step_s, 10.0);
+    }
+    return row;
+  };
   for (const Case& c : cs)
     for (int sine = 0; sine <= 1; ++sine)
-      for (sma::Mode mode : modes) {
-        progress("[%2d/%2d] %s", ++done, static_cast<int>(cs.size() * 6), c.name.c_str());
-        RunSetup s;
-        s.mode = mode;
-        s.condition = sma_host::Condition::rig_like();
-        s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
-        s.plant_params = c.plant;
-        s.model_params = c.model;
-        s.plant_effects = c.plant_fx;
-        s.model_effects = c.model_fx;
-        if (mode != sma::Mode::Preview) s.config.gains = sma::console::default_gains(mode);
-        const std::vector<sma_host::Sample> r = run(c, s);
-        Row row{c.name, sine ? "sine" : "multi-step", sma::mode_name(mode), Metrics(), 0.0};
-        if (sine) {
-          row.m = sma_host::sine_metrics(r, s.reference.sine_period_s);
-        } else {
-          row.m = sma_host::step_metrics(r, s.reference.step_s);
-          row.overshoot_mm = sma_host::step_overshoot_mm(r, s.reference.step_s, 10.0);
-        }
-        rows.push_back(row);
-      }
+      for (sma::Mode mode : modes) rows.push_back(one(c, sine, mode, false));
+  for (size_t i : fixed_cases)
+    for (int sine = 0; sine <= 1; ++sine) fixed_rows.push_back(one(cs[i], sine, sma::Mode::Preview, true));
   progress.finish();
   std::printf("Rig-like, float, default settings; true position, whole run (sine after its first "
               "period). Overshoot: past each new setpoint within 10 s of its step. Wrong-way: after / before\n"
@@ -131,6 +142,15 @@ int main(int argc, char** argv) {
                 r.controller.c_str(), r.m.max_mm, r.m.rms_mm, r.m.max_fall_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm,
                 r.test == "sine" ? "-" : std::to_string(r.m.sse_mm).substr(0, 6).c_str(),
                 r.test == "sine" ? "-" : std::to_string(r.overshoot_mm).substr(0, 6).c_str());
+  std::printf("\nThe preview in Q16.16 (the Uno's scalar; the same runs otherwise):\n\n"
+              "| case | test | max mm | RMS mm | wrong-way mm | SSE mm | overshoot mm |\n"
+              "|---|---|---|---|---|---|---|\n");
+  for (const Row& r : fixed_rows)
+    std::printf("| %s | %s | %.4f | %.4f | %.4f / %.4f | %s | %s |\n", r.kase.c_str(), r.test.c_str(), r.m.max_mm,
+                r.m.rms_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm,
+                r.test == "sine" ? "-" : std::to_string(r.m.sse_mm).substr(0, 6).c_str(),
+                r.test == "sine" ? "-" : std::to_string(r.overshoot_mm).substr(0, 6).c_str());
+  rows.insert(rows.end(), fixed_rows.begin(), fixed_rows.end());
   FILE* f = std::fopen(json_path, "w");
   if (!f) {
     std::perror(json_path);
@@ -140,11 +160,12 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < rows.size(); ++i) {
     const Row& r = rows[i];
     std::fprintf(f,
-                 "    {\"case\": \"%s\", \"test\": \"%s\", \"condition\": \"rig-like\", \"scalar\": \"float\", "
+                 "    {\"case\": \"%s\", \"test\": \"%s\", \"condition\": \"rig-like\", \"scalar\": \"%s\", "
                  "\"controller\": \"%s\", \"max_mm\": %.6f, \"rms_mm\": %.6f, \"max_fall_mm\": %.6f, "
                  "\"wrong_way_mm\": %.6f, \"wrong_way_before_mm\": %.6f, \"sse_mm\": %.6f, \"overshoot_mm\": %.6f}%s\n",
-                 r.kase.c_str(), r.test.c_str(), r.controller.c_str(), r.m.max_mm, r.m.rms_mm, r.m.max_fall_mm,
-                 r.m.wrong_way_mm, r.m.wrong_way_before_mm, r.m.sse_mm, r.overshoot_mm, i + 1 < rows.size() ? "," : "");
+                 r.kase.c_str(), r.test.c_str(), r.scalar, r.controller.c_str(), r.m.max_mm, r.m.rms_mm,
+                 r.m.max_fall_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm, r.m.sse_mm, r.overshoot_mm,
+                 i + 1 < rows.size() ? "," : "");
   }
   std::fprintf(f, "  ]\n}\n");
   std::fclose(f);

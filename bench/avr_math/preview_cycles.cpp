@@ -6,6 +6,7 @@
 // Built twice (float, and -DSMA_PREVIEW_FIXED for Q16.16: both do not fit 32 KB together).
 #include <avr/interrupt.h>
 #include <avr/io.h>
+#include <avr/pgmspace.h>
 #include <avr/sleep.h>
 #include "sma/fixed.hpp"
 #include "sma/preview.hpp"
@@ -14,8 +15,10 @@
 namespace {
 volatile float g_sink;
 
+// name: in flash (PSTR). The controller lives on the stack (~1.6 KB of the 2 KB): names in RAM
+// were overwritten by the deepest calls (a stack paint found no byte of RAM the calls left alone).
 void group(const char* name) {
-  while (*name != '\0') GPIOR1 = static_cast<uint8_t>(*name++);
+  for (char ch; (ch = static_cast<char>(pgm_read_byte(name))) != '\0'; ++name) GPIOR1 = static_cast<uint8_t>(ch);
   GPIOR1 = 0;
 }
 
@@ -57,17 +60,17 @@ __attribute__((noinline)) void run(const char* name, uint8_t steps_per_tick, boo
 
 int main() {
 #ifdef SMA_PREVIEW_FIXED
-  run<sma::Fixed>("fixed.steps1.pwm", 1, true);
-  run<sma::Fixed>("fixed.steps1", 1, false);
-  run<sma::Fixed>("fixed.tick_only.pwm", 0, true, 5);
-  run<sma::Fixed>("fixed.plan_step.pwm", 0, true, 5, true);
+  run<sma::Fixed>(PSTR("fixed.steps1.pwm"), 1, true);
+  run<sma::Fixed>(PSTR("fixed.steps1"), 1, false);
+  run<sma::Fixed>(PSTR("fixed.tick_only.pwm"), 0, true, 5);
+  run<sma::Fixed>(PSTR("fixed.plan_step.pwm"), 0, true, 5, true);
 #else
-  run<float>("float.steps4.pwm", 4, true);
-  run<float>("float.steps4", 4, false);
-  run<float>("float.steps1.pwm", 1, true);
-  run<float>("float.steps1", 1, false);
-  run<float>("float.tick_only.pwm", 0, true, 5);
-  run<float>("float.plan_step.pwm", 0, true, 5, true);
+  run<float>(PSTR("float.steps4.pwm"), 4, true);
+  run<float>(PSTR("float.steps4"), 4, false);
+  run<float>(PSTR("float.steps1.pwm"), 1, true);
+  run<float>(PSTR("float.steps1"), 1, false);
+  run<float>(PSTR("float.tick_only.pwm"), 0, true, 5);
+  run<float>(PSTR("float.plan_step.pwm"), 0, true, 5, true);
 #endif
   for (uint8_t i = 0; i < 5; ++i) GPIOR2 = 0;  // no self-check here: report a pass
   cli();

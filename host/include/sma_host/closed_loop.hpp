@@ -125,9 +125,14 @@ std::vector<Sample> run_loop_on(PlantT& plant, const RunSetup& s, sma::Reference
 }
 
 // Mode::Preview: the PreviewController, given the reference's future as the board would
-// (ReferenceGen at t + tau).
-template <class T, class PlantT>
-std::vector<Sample> run_preview_loop_on(PlantT& plant, const RunSetup& s) {
+// (ReferenceGen at t + tau). watch(controller) after each tick's planning (tests read its state).
+struct NoWatch {
+  template <class C>
+  void operator()(const C&) const {}
+};
+
+template <class T, class PlantT, class Watch = NoWatch>
+std::vector<Sample> run_preview_loop_on(PlantT& plant, const RunSetup& s, Watch watch = Watch()) {
   sma::PreviewConfig pc = s.preview;
   pc.dt = s.config.dt;
   pc.v_max = s.config.v_max;
@@ -141,6 +146,7 @@ std::vector<Sample> run_preview_loop_on(PlantT& plant, const RunSetup& s) {
     if (!pc.plan_in_step)
       for (int i = 0; i < s.idle_plan_steps; ++i)
         if (ctl.plan_step(future)) break;
+    watch(ctl);
     return c;
   });
 }

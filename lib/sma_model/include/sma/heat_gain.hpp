@@ -22,8 +22,14 @@
 // temperature). The caller applies k^ to the model wire: eq 1's loss term k^ G (T - T_a) in its
 // temperature step and in eq 17 (loss_correction()).
 //
-// Header-only, no STL; float and double (it compiles for sma::Fixed, but its means move by ~1e-6
-// a sample: Q16.16 rounds them away, so the preview leaves it off there).
+// The regression's sums: in float and double the weighted means of w, w S, w S^2, w z, w S z
+// (RawMoments). Q16.16 cannot hold those: the weights are ~1e-4..2.5e-3 (mm/K)^2 and the means
+// move by ~1e-6 a sample, below its LSB (1.5e-5), and the products mw mwss, mws^2 cancel to a
+// few K^2 out of ~1600 x the means' rounding. It keeps the same estimate in the centred form
+// (CentredMoments): the weighted means of S and z and their weighted variance and covariance,
+// updated in place (the weights' scale cancels in the slope, so they are normalised there).
+//
+// Header-only, no STL; float, double and sma::Fixed.
 #ifndef SMA_HEAT_GAIN_HPP
 #define SMA_HEAT_GAIN_HPP
 
@@ -39,14 +45,86 @@ __attribute__((noinline)) T low_pass(T m, T a, T x) {
   return m + a * (x - m);
 }
 
+// The least-squares slope of z over S with weights w, exponential forgetting a a sample and the
+// ridge prior of a spread of S of 1 K towards slope 1 (HeatLossObserver::add):
+//
+//     k = (cov_w(S, z) + 1 K^2) / (var_w(S) + 1 K^2)
+//
+// add() takes a sample and gives k; false while there is no estimate (no sample yet).
+template <class T>
+struct RawMoments {
+  T mw, mws, mwss, mwz, mwsz;  // weighted means: w, w S, w S^2, w z, w S z
+
+  void reset() { mw = mws = mwss = mwz = mwsz = T(0); }
+
+  // w = slope^2 (mm/K)^2. With everything multiplied by mw^2: no division but the last.
+  bool add(T slope, T S, T z, T a, T& k) {
+    const T w = slope * slope;
+    const T ws = w * S;
+    mw = low_pass(mw, a, w);
+    mws = low_pass(mws, a, ws);
+    mwss = low_pass(mwss, a, ws * S);
+    mwz = low_pass(mwz, a, w * z);
+    mwsz = low_pass(mwsz, a, ws * z);
+    const T var = mw * mwss - mws * mws;  // mw^2 x the weighted variance of S, K^2
+    const T prior = mw * mw;              // mw^2 x (1 K)^2
+    if (!(var + prior > T(0))) return false;
+    k = (mw * mwsz - mws * mwz + prior) / (var + prior);
+    return true;
+  }
+};
+
+// The same estimate for a scalar with an absolute resolution (Q16.16): every quantity ~1..1000
+// of its LSB or more. The weight is normalised by a reference slope of 1/32 mm/K (w ~ 0.03..2.6
+// over the slopes the preview takes, 5..50 um/K); n = sum of w with forgetting (mw / a: ~w / a,
+// ~600 at 60 s of memory), so the new sample's share f = w / n is exactly 1 for the first sample
+// and ~a after (~110 LSB at 0.1 s / 60 s). Mean and (co)variance updated with it (West 1979):
+//
+//     m' = m + f (x - m),   C' = (1 - f) (C + f dS dz)   (dS, dz: the sample minus the old means)
+//
+// which is, in exact arithmetic, RawMoments' ratios (var = mw^2 var_w). Their rounding: a mean
+// stops moving within 0.5 LSB / f ~ 0.005 K of its sample, the variance within ~0.01 K^2 of its
+// target (< 1 % of the 1 K^2 prior); the gain stays within ~0.3 % of double's
+// (test_preview_heat_loss.cpp).
+template <class T>
+struct CentredMoments {
+  T n, mS, mz, vS, cSz;  // sum of weights, weighted means of S and z (K), var(S), cov(S, z) (K^2)
+
+  void reset() { n = mS = mz = vS = cSz = T(0); }
+
+  bool add(T slope, T S, T z, T a, T& k) {
+    const T u = slope * T(32);
+    const T w = u * u;
+    n = n + w - a * n;
+    if (!(n > T(0))) return false;
+    const T f = w / n;
+    const T dS = S - mS, dz = z - mz;
+    const T fdS = f * dS;
+    mS = mS + fdS;
+    mz = mz + f * dz;
+    const T keep = T(1) - f;
+    vS = keep * (vS + fdS * dS);
+    cSz = keep * (cSz + fdS * dz);
+    k = (cSz + T(1)) / (vS + T(1));
+    return true;
+  }
+};
+
+class Fixed;  // fixed.hpp
+// The regression's form for scalar T: raw means unless T's resolution is absolute.
+template <class T> struct MomentsFor { typedef RawMoments<T> type; };
+template <> struct MomentsFor<Fixed> { typedef CentredMoments<Fixed> type; };
+
 template <class T>
 class HeatLossObserver {
  public:
   // dt_s: the tick (tick()); sample_s: time between add() samples; memory_s: the regression's
   // forgetting time; adapt_s: time constant of the gain's move to the regression's slope;
-  // dead_zone: |k - 1| below it reads as 1; k_lo..k_hi: the plausible range.
-  HeatLossObserver(const Params& p, double dt_s, double sample_s, double memory_s, double adapt_s,
-                   double dead_zone, double k_lo = 0.75, double k_hi = 1.33)
+  // dead_zone: |k - 1| below it reads as 1; k_lo..k_hi: the plausible range. (Always inlined:
+  // out of line, avr-gcc 5.4 makes the Q16.16 one 320 B more flash.)
+  __attribute__((always_inline)) HeatLossObserver(const Params& p, double dt_s, double sample_s, double memory_s,
+                                                  double adapt_s, double dead_zone, double k_lo = 0.75,
+                                                  double k_hi = 1.33)
       : c_(from_double<T>(dt_s * p.conductance() / p.heat_capacity())),
         a_(from_double<T>(1.0 - decay_factor(sample_s / memory_s))),
         b_(from_double<T>(1.0 - decay_factor(sample_s / adapt_s))),
@@ -57,7 +135,8 @@ class HeatLossObserver {
   }
 
   void reset() {
-    mw_ = mws_ = mwss_ = mwz_ = mwsz_ = S_ = T(0);
+    m_.reset();
+    S_ = T(0);
     k_ = T(1);
     kc_ = T(0);
   }
@@ -66,23 +145,17 @@ class HeatLossObserver {
   void tick(T rise) { S_ = S_ - c_ * (k_ * S_ + rise); }
 
   // One sample while both wires transform on the heating curve: gap = T_wire - T_model seen
-  // through the position (K), slope = the curve's position per kelvin (mm/K).
-  void add(T gap, T slope) {
-    const T w = slope * slope;
+  // through the position (K), slope = the curve's position per kelvin (mm/K). (Always inlined
+  // into the preview's one call: a frame of its own is ~50 B of stack, which the 328P cycle
+  // harness, the controller on its stack, does not have.)
+  __attribute__((always_inline)) void add(T gap, T slope) {
     const T z = gap + k_ * S_;
-    const T ws = w * S_;
-    mw_ = low_pass(mw_, a_, w);
-    mws_ = low_pass(mws_, a_, ws);
-    mwss_ = low_pass(mwss_, a_, ws * S_);
-    mwz_ = low_pass(mwz_, a_, w * z);
-    mwsz_ = low_pass(mwsz_, a_, ws * z);
-    // The slope of z over S (ridge regression), pulled towards k = 1 by a prior worth a spread
-    // of S of 1 K: data that span few temperatures cannot tell the slope from the intercept (the
-    // first transient from ambient spans only a few kelvin).
-    const T var = mw_ * mwss_ - mws_ * mws_;  // mw^2 x the weighted variance of S, K^2
-    const T prior = mw_ * mw_;                 // mw^2 x (1 K)^2
-    if (!(var + prior > T(0))) return;
-    T k_ls = clamp((mw_ * mwsz_ - mws_ * mwz_ + prior) / (var + prior), k_lo_, k_hi_);
+    // The slope of z over S (ridge regression, weight slope^2), pulled towards k = 1 by a prior
+    // worth a spread of S of 1 K: data that span few temperatures cannot tell the slope from the
+    // intercept (the first transient from ambient spans only a few kelvin).
+    T k_ls;
+    if (!m_.add(slope, S_, z, a_, k_ls)) return;
+    k_ls = clamp(k_ls, k_lo_, k_hi_);
     if (!is_finite(k_ls)) return;
     // Within the dead zone the model's own h is kept: the slope's bias from the loop's transients
     // is a few per cent, and the preview is as sensitive to a wrong gain as to a wrong h.
@@ -99,7 +172,7 @@ class HeatLossObserver {
  private:
   T c_;  // G dt / C
   T a_, b_, k_lo_, k_hi_, dead_;
-  T mw_, mws_, mwss_, mwz_, mwsz_;  // weighted means: w, w S, w S^2, w z, w S z
+  typename MomentsFor<T>::type m_;  // the regression's sums
   T S_;                             // dT/dk along the model wire's path, K
   T k_, kc_;
 };

@@ -129,7 +129,6 @@ struct PreviewConfig {
   // Heat-loss observer (heat_gain.hpp): the wire's heat-loss gain against the model's (k =
   // h_wire / h_model), learned apart from a shift of the curves and applied to the model wire, so
   // that its temperature, and the loop memory it walks, stay the wire's. memory 0 = off.
-  // (Float and double only: Q16.16 is too coarse for its sums.)
   double heat_gain_memory_s = 60.0;  // forgetting time of the regression, s
   double heat_gain_adapt_s = 0.3;    // time constant of the gain's move to the regression, s
   double heat_gain_dead_zone = 0.03;  // |k - 1| below this reads as the model's own h
@@ -227,9 +226,7 @@ class PreviewCore {
         grid_ticks_(from_double<T>(cfg.grid_s / cfg.dt)),
         heat_(p, cfg.dt, kObserveTicks * cfg.dt, cfg.heat_gain_memory_s > 0.0 ? cfg.heat_gain_memory_s : 1.0,
               cfg.heat_gain_adapt_s, cfg.heat_gain_dead_zone),
-        // The regression's means move by ~1e-5 a sample: a scalar that rounds 1e-6 to zero
-        // (Q16.16) cannot hold them, and runs without the observer (docs/control.md).
-        observe_heat_(cfg.heat_gain_memory_s > 0.0 && !(from_double<T>(1e-6) == T(0))),
+        observe_heat_(cfg.heat_gain_memory_s > 0.0),
         lag_ticks_(from_double<T>(cfg.heat_gain_lag_ticks)),
         far_step_s_(cfg.lookahead_s / kFar),
         rise_margin_(from_double<T>(cfg.rise_margin_mm)),
@@ -360,6 +357,7 @@ class PreviewCore {
     if (SMA_PREVIEW_HEAT_LOSS && sample_due_) take_heat_sample();  // before the hysteresis moves on
     if (!wire_pending_) return;
     wire_pending_ = false;
+    sensitivity_tick();
     const T eps_new = est_.update(T_est_);
     deps_ = (eps_new - eps_est_) * inv_dt_;
     eps_est_ = eps_new;
@@ -422,6 +420,7 @@ class PreviewCore {
   T hold_off() {
     v_ = T(0);
     model_wire_heat(T(0), T(0));
+    sensitivity_tick();
     eps_est_ = est_.update(T_est_);
     return v_;
   }
@@ -546,7 +545,7 @@ class PreviewCore {
     if (!heat && stale_cooling()) T_cmd = max(T_cmd, T_est_);
     const T slope = (T_cmd - T_est_) * inv_track_;
     // Eq 17, with the observed heat loss: k^ G (T - T_a) = G (T - T_a) + C (extra slope).
-    const T extra = observing() ? heat_.loss_correction() * inv_dt_ * (T_est_ - thermal_.T_a) : T(0);
+    const T extra = observing() ? loss_rate_ * (T_est_ - thermal_.T_a) : T(0);
     T v = min(thermal_.voltage_for(T_est_, slope + extra, eps_est_, deps_), v_max_);
     if (!is_finite(v)) v = T(0);
     if (!heat && pwm_top_ > 0 && T_est_ > est_.loop().T_MSi) v = pwm_level_below(v);  // loop(): prepared above
@@ -569,15 +568,19 @@ class PreviewCore {
   }
 
   // One tick of the model wire's temperature under voltage v (eq 1, with the observed heat loss
-  // k^ G) and of the observer's sensitivity along it.
+  // k^ G).
   void model_wire_heat(T v, T deps) {
     T_prev_ = T_est_;
     T next = wire_step_(T_est_, v, eps_est_, deps);
-    if (observing()) {
-      next = next - heat_.loss_correction() * (T_est_ - thermal_.T_a);
-      heat_.tick(next - thermal_.T_a);
-    }
+    if (observing()) next = next - heat_.loss_correction() * (T_est_ - thermal_.T_a);
     T_est_ = next;
+  }
+  // The observer's sensitivity along that tick, between ticks (prepare_next_tick(); hold_off()
+  // at once): only the samples and the re-anchoring read it, both in plan_step() after
+  // prepare_next_tick(). Two multiplies less in the control section. (A reset() between the
+  // tick and prepare_next_tick() drops that tick's step of S: the model wire restarts anyway.)
+  SMA_PREVIEW_NOINLINE void sensitivity_tick() {
+    if (observing()) heat_.tick(T_est_ - thermal_.T_a);
   }
 
   // The highest PWM level at or below v (the heater's duty = (V / v_supply)^2). A hundredth of
@@ -630,6 +633,7 @@ class PreviewCore {
     const T gap = clamp(curves_.heat_temperature(fraction(obs_x_)) + shift_ - obs_T_then_, T(-10), T(10));
     const T k_before = heat_.gain();
     heat_.add(gap, slope);
+    loss_rate_ = heat_.loss_correction() * inv_dt_;
     // A new gain changes the model wire's past: its temperature now is the one the new gain
     // gives, to first order T + dk S. Both wires are on the heating curve (eq 4, no loop memory),
     // so the model wire is re-anchored there, and the offset keeps the measured position.
@@ -884,6 +888,7 @@ class PreviewCore {
   T due_x_ = T(0), due_T_ = T(0), due_T_prev_ = T(0);  // its measurement, the model wire then and before
   T obs_x_ = T(0), obs_T_then_ = T(0);    // its measurement and model wire temperature
   T lag_ticks_;
+  T loss_rate_ = T(0);  // (k^ - 1) G / C, 1/s: eq 17's extra slope per kelvin (branch_voltage)
   double far_step_s_;  // lookahead_s / kFar
   T rise_margin_;      // rise_margin_mm
   uint8_t min_hold_;   // grid steps of a hold: 2 s
