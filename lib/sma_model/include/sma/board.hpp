@@ -57,16 +57,11 @@ inline void* operator new(size_t, void* place) noexcept { return place; }
 
 namespace sma {
 
-// The preview's plan passes after each tick (Board::plan()): the one pacing rule of the firmware,
-// the host's board loop and the tests, so the board runs what the host proves whatever its code's
-// speed. The first pass samples the next tick's lead reference, the others are grid steps
-// (PreviewController::plan_step): the grid steps a tick that plans in step() simulates
-// (PreviewConfig::steps_per_tick), one grid step less lets the sine fall behind (docs/control.md
-// section 19). On the 16 MHz AVR the passes (the lead <= ~44 k cycles, a grid step <= ~22 k) and
-// the tick (<= 16 k) fit in the 10 ms tick (160 k cycles); a tick that comes first is counted
-// (Board::plan_short()). (From the default config's steps_per_tick: the board's preview runs the
-// default config.)
-constexpr uint8_t kPlanPasses = 1 + PreviewConfig().steps_per_tick;
+// The preview's plan passes after each tick (Board::plan()) are its config's
+// PreviewConfig::plan_passes(): the next tick's lead sample, then steps_per_tick grid steps
+// (PreviewController::plan_step). On the 16 MHz AVR the passes (the lead <= ~44 k cycles, a grid
+// step <= ~22 k) and the tick (<= 16 k) fit in the 10 ms tick (160 k cycles); a tick that comes
+// first is counted (Board::plan_short()).
 
 namespace detail {
 // The plan's passes after each tick (Board::plan()); on a board without the preview an empty
@@ -75,8 +70,8 @@ template <bool On>
 struct PlanPace {
   bool pace_done() const { return true; }
   void pace_pass(bool) {}
-  void pace_arm() {}
-  void pace_tick(bool) {}
+  void pace_arm(uint8_t) {}
+  void pace_tick(bool, uint8_t) {}
   uint16_t pace_short() const { return 0; }
 };
 template <>
@@ -85,12 +80,12 @@ struct PlanPace<true> {
   bool pace_done() const { return left_ == 0; }
   // One pass; `complete`: it completed a plan (the tick's planning is done).
   void pace_pass(bool complete) { left_ = complete ? uint8_t(0) : static_cast<uint8_t>(left_ - 1); }
-  void pace_arm() { left_ = kPlanPasses; }
+  void pace_arm(uint8_t passes) { left_ = passes; }
   // A tick: one that came before the last one's passes were done is counted (`planning`: the
   // preview runs).
-  void pace_tick(bool planning) {
+  void pace_tick(bool planning, uint8_t passes) {
     if (left_ && planning && short_ < 0xFFFFu) ++short_;
-    pace_arm();
+    pace_arm(passes);
   }
   uint16_t pace_short() const { return short_; }
 
@@ -104,6 +99,11 @@ template <class R>
 constexpr auto rig_preview(int) -> decltype(R::preview()) { return R::preview(); }
 template <class R>
 constexpr bool rig_preview(long) { return false; }
+// Rig::preview_steps_per_tick(), or the default config's.
+template <class R>
+constexpr auto rig_steps_per_tick(int) -> decltype(R::preview_steps_per_tick()) { return R::preview_steps_per_tick(); }
+template <class R>
+constexpr uint8_t rig_steps_per_tick(long) { return PreviewConfig().steps_per_tick; }
 }  // namespace detail
 
 template <class T, class Rig, class Hw>
@@ -270,13 +270,14 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
       send();
     }
     ++v_.x.ticks_;
-    this->pace_tick(preview_on());  // the next tick's plan passes (plan())
+    constexpr uint8_t kPasses = plan_passes();
+    this->pace_tick(preview_on(), kPasses);  // the next tick's plan passes (plan())
     if (v_.x.fault_due_) announce_fault();
   }
 
   // Between ticks, when the caller has ~2 ms before the next one: one bounded step of the
   // preview's plan (PreviewController::plan_step, <= ~22 k AVR cycles in float), at most
-  // kPlanPasses after a tick, fewer when a plan completes. True when the tick's planning is done
+  // plan_passes() after a tick, fewer when a plan completes. True when the tick's planning is done
   // (then a call does nothing): the caller may call it as often as its time allows. Never from an
   // interrupt that can preempt control().
   SMA_NOINLINE bool plan() {
@@ -284,6 +285,9 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     this->pace_pass(!preview_on() || preview().plan_step(Future{this, static_cast<float>(live_.x.t_ref_s)}));
     return this->pace_done();
   }
+  // The plan passes after each tick: those of the preview's config (preview_config(): the rig's
+  // steps_per_tick, PreviewConfig::plan_passes), 0 without the preview.
+  static constexpr uint8_t plan_passes() { return kPreview ? preview_config().plan_passes() : uint8_t(0); }
   // Ticks that came before the last one's planning was done (the caller ran out of time: the board
   // then ran less plan than the host proves).
   uint16_t plan_short() const { return this->pace_short(); }
@@ -449,8 +453,10 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   static float t_of(uint32_t k) { return static_cast<float>(k) * static_cast<float>(1.0 / Rig::tick_hz()); }
   // The reference at t (one copy of ReferenceGen::at for the tick and the preview's future).
   SMA_NOINLINE T ref_at(float t) { return gen().at(t); }
-  static PreviewConfig preview_config() {
+  // The preview's config: the rig's tick, V_max, PWM and (if it names one) steps_per_tick.
+  static constexpr PreviewConfig preview_config() {
     PreviewConfig c;
+    c.steps_per_tick = detail::rig_steps_per_tick<Rig>(0);
     c.dt = 1.0 / Rig::tick_hz();
     c.v_max = Rig::v_max();
     c.v_supply = Rig::v_supply();
@@ -652,6 +658,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   // `rows_before`: rig-log rows were streaming before this command (their header was sent).
   SMA_NOINLINE void apply(const console::Command& c, bool rows_before) {
     using console::Op;
+    constexpr uint8_t kPasses = plan_passes();
     if (c.op == Op::Stop) safety_.x.clear();
     if (c.op == Op::Tlim) safety_.x.set_limit(state_.s.tlim_C);
     if (c.op == Op::Volt || c.op == Op::Train) ctl().set_voltage(from_double<T>(state_.s.volt));
@@ -660,7 +667,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     // tick does not sample it inside the control section.
     if (kPreview && m == Mode::Preview && m != ctl().mode()) {
       preview().start(ctl().wire_temperature(), v_.x.last_d_);
-      this->pace_arm();
+      this->pace_arm(kPasses);
     }
     // Leaving the preview: the controller did not step while it ran; its estimate continues
     // from the preview's (the latch and the inverse model start from it).
@@ -674,7 +681,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
       start_reference();
       v_.x.run_start_ = v_.x.ticks_;
       preview().new_reference();
-      this->pace_arm();
+      this->pace_arm(kPasses);
     }
     // The header once per start of the rows (tele on after off or plot).
     if (c.op == Op::Tele && state_.s.tele && !state_.s.plot && !rows_before) v_.x.header_due_ = true;
