@@ -351,11 +351,14 @@ static void loop() {
   }
   g_board.poll();
   // The preview's planning, one bounded step (<= ~1.4 ms; the tick's first <= ~2.8 ms) per pass
-  // while the slot is open, until the tick's passes are done (sma::kPlanPasses, the host's:
+  // while the slot is open, until the tick's passes are done (Board::plan_passes(), the host's:
   // plan() then does nothing). Ticks that came first are counted; GPIOR2 shows the count to the virtual
   // rig (fil_preview asserts 0): written after each tick.
 #if RIG_FEATURE_PREVIEW
-  if (!g_board.line_waiting() && plan_slot_open()) g_board.plan();
+  if (!g_board.line_waiting() && plan_slot_open()) {
+    GPIOR0 = 4;  // the virtual rig times each pass (vrig --pass-trace)
+    GPIOR0 = g_board.plan() ? 6 : 5;
+  }
 #endif
 }
 
