@@ -184,6 +184,49 @@ TEST(BoardPreview, ThePassesFollowThePreviewsConfig) {
   EXPECT_EQ(most, 3);
 }
 
+// The telemetry row after the plan passes (rows_after_plan(true), the Mega image: the passes
+// start ~16 k AVR cycles earlier): the same lines in the same order as rows written in report(),
+// also when a tick leaves no time for its row (the next report() writes it before its own), when
+// a command's reply comes while a row waits, and with a fault announced after its tick's row.
+// The PWM is the same tick by tick.
+TEST(BoardPreview, RowsAfterThePlanAreTheSameRows) {
+  Bench<true> now, later;
+  later.b->rows_after_plan(true);
+  for (Bench<true>* t : {&now, &later}) {
+    t->cmd("tele on");
+    t->cmd("sine");
+    t->lines.clear();
+  }
+  for (int k = 0; k < 300; ++k) {
+    // The sensor lost from tick 250: the latch trips and announces it.
+    const uint32_t adc = k < 250 ? 300u * 96u : 0u;
+    const uint16_t a = now.b->control(adc, 96, k < 250 ? 0 : 96);
+    const uint16_t b = later.b->control(adc, 96, k < 250 ? 0 : 96);
+    ASSERT_EQ(a, b) << "tick " << k;
+    now.b->report();
+    later.b->report();
+    EXPECT_EQ(later.b->row_waits(), true) << "tick " << k;
+    while (!now.b->plan()) {
+    }
+    while (!later.b->plan()) {
+    }
+    if (k % 7 != 3) later.b->telemetry();  // (every 7th tick no time is left for the row)
+    if (k == 101) {  // a line while a row waits: the row goes first, as it did in report()
+      for (Bench<true>* t : {&now, &later}) {
+        for (char c : std::string("status\n"))
+          if (t->b->rx(c)) t->b->handle_line();
+      }
+    }
+  }
+  later.b->telemetry();
+  EXPECT_FALSE(later.b->row_waits());
+  ASSERT_GT(now.lines.size(), 300u);
+  int faults = 0;
+  for (const std::string& l : now.lines) faults += l.find("# fault sensor") == 0;
+  EXPECT_EQ(faults, 1);
+  EXPECT_EQ(later.lines, now.lines);
+}
+
 // No planning time at all (plan() never called) is safe: the preview then only follows the
 // reference, and the latch still watches its wire temperature estimate.
 TEST(BoardPreview, WithoutPlanningItStillFollowsTheReference) {

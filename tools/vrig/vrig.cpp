@@ -335,6 +335,17 @@ void write_json(const Options& o, const Stats& st, const char* variant, double s
   fclose(f);
 }
 
+// An output file with its first line, or nullptr (said on stderr).
+FILE* open_out(const std::string& path, const char* first_line) {
+  FILE* f = fopen(path.c_str(), "w");
+  if (!f) {
+    fprintf(stderr, "vrig: cannot write %s\n", path.c_str());
+    return nullptr;
+  }
+  fprintf(f, "%s\n", first_line);
+  return f;
+}
+
 // Non-blocking stdin lines (when neither --script nor --pty).
 struct StdinLines {
   std::string buf;
@@ -841,22 +852,9 @@ int main(int argc, char** argv) {
     }
     fprintf(rig.out.log, "# rig: vrig %s noise_mm=%g\n", o.native ? "native" : o.elf.c_str(), o.noise_mm);
   }
-  if (!o.truth.empty()) {
-    rig.truth = fopen(o.truth.c_str(), "w");
-    if (!rig.truth) {
-      fprintf(stderr, "vrig: cannot write %s\n", o.truth.c_str());
-      return 2;
-    }
-    fprintf(rig.truth, "t_s,true_mm\n");
-  }
-  if (!o.pass_trace.empty()) {
-    rig.pass_trace = fopen(o.pass_trace.c_str(), "w");
-    if (!rig.pass_trace) {
-      fprintf(stderr, "vrig: cannot write %s\n", o.pass_trace.c_str());
-      return 2;
-    }
-    fprintf(rig.pass_trace, "# tick pass start_cycles length_cycles done\n");
-  }
+  if (!o.truth.empty() && !(rig.truth = open_out(o.truth, "t_s,true_mm"))) return 2;
+  if (!o.pass_trace.empty() && !(rig.pass_trace = open_out(o.pass_trace, "# tick pass start_cycles length_cycles done")))
+    return 2;
   sma::RigOptions ro;
   ro.noise_mm = o.noise_mm;
   ro.v_supply = RIG_V_SUPPLY;

@@ -94,6 +94,35 @@ struct PlanPace<true> {
   uint16_t short_;  // ticks counted by pace_tick()
 };
 
+// A telemetry row written after the plan's passes (Board::rows_after_plan()): its tick's figures,
+// kept from report() to telemetry() (the next control() overwrites Live's).
+struct LateRow {
+  uint32_t ticks;
+  double v, d_mm, ref_mm;
+  uint16_t counts;
+  bool waits;
+};
+
+// Where report() keeps a row for telemetry() (Board::rows_after_plan()): nothing on a board
+// without the preview. (After the Board's scalars: placed before the others, it shifted every
+// member and the Mega image's ffpid then put out 0 V; docs/control.md section 22.)
+template <bool On>
+struct RowSlot {
+  bool rows_later() const { return false; }
+  void set_rows_later(bool) {}
+  LateRow* late_row() { return nullptr; }
+};
+template <>
+struct RowSlot<true> {
+  bool rows_later() const { return later_; }
+  void set_rows_later(bool later) { later_ = later; }
+  LateRow* late_row() { return &row_; }
+
+ private:
+  bool later_;
+  LateRow row_;
+};
+
 // Rig::preview(), or false for a rig that does not name the feature.
 template <class R>
 constexpr auto rig_preview(int) -> decltype(R::preview()) { return R::preview(); }
@@ -108,6 +137,8 @@ constexpr uint8_t rig_steps_per_tick(long) { return PreviewConfig().steps_per_ti
 
 template <class T, class Rig, class Hw>
 class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
+  typedef detail::LateRow LateRow;
+
  public:
   // The preview controller (sma/preview.hpp, Rig::preview()): `mode preview`, `cool W`, the
   // default for references; it plans between ticks (plan()).
@@ -154,6 +185,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   bool line_waiting() const { return v_.x.waiting_ != LineStatus::Pending; }
 
   SMA_NOINLINE void handle_line() {
+    telemetry();  // a row that waits for the plan's passes goes before the reply, as without them
     const LineStatus st = v_.x.waiting_;
     v_.x.waiting_ = LineStatus::Pending;
     if (st == LineStatus::Line) {
@@ -247,7 +279,9 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   }
 
   // After control() (and the PWM written): the tick's figures for status and telemetry, the
-  // telemetry row and a fault announcement of that tick.
+  // telemetry row and a fault announcement of that tick. With rows_after_plan(true) (a board with
+  // the preview) the row (~16 k AVR cycles) and the announcement wait for telemetry(), so that
+  // the plan's passes start that much earlier in the tick (docs/control.md section 22).
   SMA_NOINLINE void report() {
     live_.x.ticks = v_.x.ticks_;
     live_.x.t_ref_s = t_of(v_.x.ticks_ - v_.x.run_start_);
@@ -264,14 +298,41 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
         send();
         v_.x.header_due_ = false;
       }
-      console::telemetry_row(reply_.x, v_.x.ticks_, static_cast<uint16_t>(Rig::tick_hz()), live_.x.v, live_.x.d_mm,
-                             live_.x.ref_mm, static_cast<float>(v_.x.counts_) / static_cast<float>(Rig::pwm_top() + 1UL),
-                             state_.s.plot);
-      send();
+      if (kPreview && v_.x.rows_later()) {
+        LateRow* r = v_.x.late_row();
+        if (r->waits) telemetry();  // the last tick's: no time was left for it after its passes
+        r->ticks = v_.x.ticks_;
+        r->v = live_.x.v;
+        r->d_mm = live_.x.d_mm;
+        r->ref_mm = live_.x.ref_mm;
+        r->counts = v_.x.counts_;
+        r->waits = true;
+      } else {
+        console::telemetry_row(reply_.x, v_.x.ticks_, static_cast<uint16_t>(Rig::tick_hz()), live_.x.v, live_.x.d_mm,
+                               live_.x.ref_mm, static_cast<float>(v_.x.counts_) / static_cast<float>(Rig::pwm_top() + 1UL),
+                               state_.s.plot);
+        send();
+      }
     }
     ++v_.x.ticks_;
     constexpr uint8_t kPasses = plan_passes();
     this->pace_tick(preview_on(), kPasses);  // the next tick's plan passes (plan())
+    if (v_.x.fault_due_ && !row_waits()) announce_fault();
+  }
+  // Telemetry rows after the plan passes (telemetry()), or in report() (the default).
+  void rows_after_plan(bool later) { v_.x.set_rows_later(later); }
+  bool row_waits() { return kPreview && v_.x.rows_later() && v_.x.late_row()->waits; }
+  // The row report() left (and a fault announcement of its tick, after it), or nothing: the
+  // caller writes it when the tick's planning is done and it has the time (~16 k AVR cycles);
+  // otherwise the next report() writes it before its own.
+  void telemetry() {
+    if (!row_waits()) return;
+    LateRow* r = v_.x.late_row();
+    r->waits = false;
+    // (report()'s row, written out again: a shared helper reorders the Uno image's functions, +20 B.)
+    console::telemetry_row(reply_.x, r->ticks, static_cast<uint16_t>(Rig::tick_hz()), r->v, r->d_mm, r->ref_mm,
+                           static_cast<float>(r->counts) / static_cast<float>(Rig::pwm_top() + 1UL), state_.s.plot);
+    send();
     if (v_.x.fault_due_) announce_fault();
   }
 
@@ -703,7 +764,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   Zeroed<console::Reply> reply_;
   Zeroed<console::Live> live_;
   // The board's scalars, all zero at boot (Zeroed: one memset). g_mm_ is set by construct().
-  struct Vars {
+  struct Scalars {
     LineStatus waiting_;     // Pending
     console::Op model_op_;   // Empty
     uint8_t model_key_;
@@ -719,6 +780,8 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     bool fault_due_;      // "# fault" is due
     bool header_due_;     // the telemetry header is due
   };
+  // (The row slot after the scalars: none on a board without the preview.)
+  struct Vars : Scalars, detail::RowSlot<kPreview> {};
   Zeroed<Vars> v_;
 };
 
