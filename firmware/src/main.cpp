@@ -265,11 +265,14 @@ static void __attribute__((noinline)) poll_serial() {
 }
 
 #if RIG_FEATURE_PREVIEW
-// A plan pass starts only while >= 1.5 ms remain before the next tick: a grid step takes <= ~22 k
-// cycles (1.4 ms); the tick's first pass (the lead sample, <= ~44 k) comes right after the tick.
-// Timer2's count says how far into the current millisecond it is (4 us a count); a compare match
-// not yet serviced (interrupts off here) is a millisecond gone.
-static bool plan_slot_open() {
+// A plan pass starts only while >= 1.5 ms remain before the next tick (kPassSlot, in Timer2 counts
+// of 4 us): a grid step takes ~8-35 k cycles (0.5-2.2 ms), the long ones early in the tick; the
+// tick's first pass (the lead sample, <= ~49 k) comes right after the tick. The telemetry row
+// (<= ~16 k cycles, 1 ms) waits for the passes and is written while >= 1.25 ms remain (kRowSlot).
+// Timer2's count says how far into the current millisecond it is; a compare match not yet serviced
+// (interrupts off here) is a millisecond gone.
+constexpr int16_t kPassSlot = 375, kRowSlot = 312;
+static bool slot_open(int16_t counts) {
   cli();
   uint8_t div = g_div;
   const uint8_t count = TCNT2;
@@ -277,7 +280,7 @@ static bool plan_slot_open() {
   const bool tick_due = g_tick_pending;
   sei();
   const int16_t left = static_cast<int16_t>(RIG_TIMER2_DIV - 1 - div) * (RIG_TIMER2_OCR + 1) + (RIG_TIMER2_OCR + 1 - count);
-  return !tick_due && left >= 375;
+  return !tick_due && left >= counts;
 }
 #endif
 
@@ -316,6 +319,9 @@ static void setup() {
   // ready line, "# fault watchdog" if the last run hung. Before the tick timer starts: tick 0
   // is the timer's first.
   g_board.boot(wdrf, SMA_F("# sma_firmware " FW_VARIANT " ready: heater off; try help"));
+#if RIG_FEATURE_PREVIEW
+  g_board.rows_after_plan(true);  // the plan passes first, the telemetry row after them (loop())
+#endif
   // Timer2: CTC, prescaler 64, 16 MHz / 64 / 250 = 1 kHz.
   TCCR2A = _BV(WGM21);
   TCCR2B = _BV(CS22);
@@ -350,12 +356,19 @@ static void loop() {
 #endif
   }
   g_board.poll();
-  // The preview's planning, one bounded step (<= ~1.4 ms; the tick's first <= ~2.8 ms) per pass
-  // while the slot is open, until the tick's passes are done (sma::kPlanPasses, the host's:
+  // The preview's planning, one bounded step (<= ~2.2 ms; the tick's first <= ~3.2 ms) per pass
+  // while the slot is open, until the tick's passes are done (Board::plan_passes(), the host's:
   // plan() then does nothing). Ticks that came first are counted; GPIOR2 shows the count to the virtual
-  // rig (fil_preview asserts 0): written after each tick.
+  // rig (fil_preview asserts 0): written after each tick. Then the tick's telemetry row (~1 ms),
+  // if it fits before the next tick (else the next tick's report() writes it; docs/control.md
+  // section 22).
 #if RIG_FEATURE_PREVIEW
-  if (!g_board.line_waiting() && plan_slot_open()) g_board.plan();
+  if (!g_board.line_waiting() && slot_open(kPassSlot)) {
+    GPIOR0 = 4;  // the virtual rig times each pass (vrig --pass-trace)
+    const bool done = g_board.plan();
+    GPIOR0 = done ? 6 : 5;
+    if (done && slot_open(kRowSlot)) g_board.telemetry();
+  }
 #endif
 }
 

@@ -22,9 +22,14 @@ struct Rig : BoardTestRig {
   static constexpr bool preview() { return Preview; }
 };
 
-template <bool Preview>
-struct Bench : BoardTestBench<sma::Board<float, Rig<Preview>, BoardTestIo> > {
-  typedef BoardTestBench<sma::Board<float, Rig<Preview>, BoardTestIo> > Base;
+// A rig whose preview runs another config than the default one: 2 grid steps a tick.
+struct RigTwoSteps : Rig<true> {
+  static constexpr uint8_t preview_steps_per_tick() { return 2; }
+};
+
+template <bool Preview, class R = Rig<Preview> >
+struct Bench : BoardTestBench<sma::Board<float, R, BoardTestIo> > {
+  typedef BoardTestBench<sma::Board<float, R, BoardTestIo> > Base;
   using Base::b;
   using Base::cmd;
   using Base::lines;
@@ -39,7 +44,6 @@ struct Bench : BoardTestBench<sma::Board<float, Rig<Preview>, BoardTestIo> > {
   // Runs `command` for `seconds` on a rig-like wire (2 um noise, the board's 10-bit ADC averaged
   // over 96 samples, its PWM), `idle_plans` plan() calls between ticks; the true position.
   std::vector<sma_host::Sample> run(const std::string& command, double seconds, int idle_plans) {
-    typedef Rig<Preview> R;
     EXPECT_EQ(cmd(command).rfind("OK", 0), 0u) << command;
     for (int i = 0; i < idle_plans; ++i) b->plan();  // the loop's time before the next tick
     std::vector<sma_host::Sample> out;
@@ -100,10 +104,13 @@ TEST(BoardPreview, IsTheDefaultForReferences) {
 // The board's loop, rig-like: the sine after its first period and the whole multi-step, true
 // position. Targets of issue 13 (sine max <= 0.12 mm, RMS <= 0.05 mm; steps RMS <= 0.05 mm and
 // below inverse + PID's; the falling halves) and better than inverse + PID on the same board.
+// The plan passes of the board's preview (the default config's: a lead sample and 4 grid steps).
+constexpr int kPasses = sma::Board<float, Rig<true>, BoardTestIo>::plan_passes();
+
 TEST(BoardPreview, TracksBetterThanInversePidOnTheBoard) {
   Bench<true> pv, fp;
   fp.cmd("mode ffpid");
-  const sma_host::Metrics ps = sma_host::sine_metrics(pv.run("sine", 100.0, sma::kPlanPasses), 50.0);
+  const sma_host::Metrics ps = sma_host::sine_metrics(pv.run("sine", 100.0, kPasses), 50.0);
   const sma_host::Metrics fs = sma_host::sine_metrics(fp.run("sine", 100.0, 0), 50.0);
   EXPECT_LE(ps.max_mm, 0.12);
   EXPECT_LE(ps.rms_mm, 0.05);
@@ -115,7 +122,7 @@ TEST(BoardPreview, TracksBetterThanInversePidOnTheBoard) {
   Bench<true> pv2, fp2;
   fp2.cmd("mode ffpid");
   const double steps_s = sma::Reference::multi_step().duration();
-  const sma_host::Metrics pm = sma_host::step_metrics(pv2.run("step", steps_s, sma::kPlanPasses), 25.0);
+  const sma_host::Metrics pm = sma_host::step_metrics(pv2.run("step", steps_s, kPasses), 25.0);
   const sma_host::Metrics fm = sma_host::step_metrics(fp2.run("step", steps_s, 0), 25.0);
   EXPECT_LE(pm.rms_mm, 0.05);
   EXPECT_LT(pm.rms_mm, fm.rms_mm);
@@ -130,29 +137,94 @@ TEST(BoardPreview, TracksBetterThanInversePidOnTheBoard) {
          fm.wrong_way_mm);
 }
 
-// The plan is paced by ticks, not by calls (Board::plan(), sma::kPlanPasses): a loop with time for
-// more calls runs exactly the plan of one that calls kPlanPasses times, the plan the host's board
+// The plan is paced by ticks, not by calls (Board::plan(), Board::plan_passes()): a loop with time for
+// more calls runs exactly the plan of one that calls plan_passes() times, the plan the host's board
 // loop proves; a loop that runs out of time before the passes are done has each such tick counted.
 TEST(BoardPreview, ThePlanIsPacedByTicksNotByCalls) {
   Bench<true> paced, eager;
-  const std::vector<sma_host::Sample> a = paced.run("sine", 30.0, sma::kPlanPasses);
+  const std::vector<sma_host::Sample> a = paced.run("sine", 30.0, kPasses);
   const std::vector<sma_host::Sample> b = eager.run("sine", 30.0, 10);
   ASSERT_EQ(a.size(), b.size());
   for (size_t k = 0; k < a.size(); ++k) ASSERT_EQ(a[k].v, b[k].v) << "tick " << k;
   ASSERT_TRUE(paced.b->controller().mode() == sma::Mode::Preview);
   EXPECT_EQ(paced.b->plan_short(), 0u);
   EXPECT_EQ(eager.b->plan_short(), 0u);
-  // After a tick the planning is done within kPlanPasses calls, and stays done.
+  // After a tick the planning is done within plan_passes() calls, and stays done.
   eager.run("status", 0.01, 0);
   int calls = 1;
   while (!eager.b->plan()) ++calls;
-  EXPECT_LE(calls, sma::kPlanPasses);
+  EXPECT_LE(calls, kPasses);
   EXPECT_TRUE(eager.b->plan());
   // One call a tick: the first pass is the next tick's lead sample, no tick's planning is done
   // (nor the passes of the command that started the sine, before tick 0).
   Bench<true> hurried;
   const size_t n = hurried.run("sine", 1.0, 1).size();
   EXPECT_EQ(hurried.b->plan_short(), n);
+}
+
+// The passes follow the config the board's preview runs, not the default one: a rig whose preview
+// plans 2 grid steps a tick gets a lead sample and 2 grid steps (PreviewConfig::plan_passes); a
+// loop with time for more calls runs the plan of one that calls 3 times, and a tick's planning is
+// done after 3 calls (a completed plan: fewer).
+TEST(BoardPreview, ThePassesFollowThePreviewsConfig) {
+  static_assert(RigTwoSteps::preview_steps_per_tick() + 1 == 3, "the rig's config");
+  Bench<true, RigTwoSteps> paced, eager;
+  const std::vector<sma_host::Sample> a = paced.run("sine", 30.0, 3);
+  const std::vector<sma_host::Sample> b = eager.run("sine", 30.0, 10);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t k = 0; k < a.size(); ++k) ASSERT_EQ(a[k].v, b[k].v) << "tick " << k;
+  EXPECT_EQ(paced.b->plan_short(), 0u);
+  int most = 0;
+  for (int k = 0; k < 200; ++k) {
+    eager.run("status", 0.01, 0);
+    int calls = 1;
+    while (!eager.b->plan()) ++calls;
+    most = calls > most ? calls : most;
+  }
+  EXPECT_EQ(most, 3);
+}
+
+// The telemetry row after the plan passes (rows_after_plan(true), the Mega image: the passes
+// start ~16 k AVR cycles earlier): the same lines in the same order as rows written in report(),
+// also when a tick leaves no time for its row (the next report() writes it before its own), when
+// a command's reply comes while a row waits, and with a fault announced after its tick's row.
+// The PWM is the same tick by tick.
+TEST(BoardPreview, RowsAfterThePlanAreTheSameRows) {
+  Bench<true> now, later;
+  later.b->rows_after_plan(true);
+  for (Bench<true>* t : {&now, &later}) {
+    t->cmd("tele on");
+    t->cmd("sine");
+    t->lines.clear();
+  }
+  for (int k = 0; k < 300; ++k) {
+    // The sensor lost from tick 250: the latch trips and announces it.
+    const uint32_t adc = k < 250 ? 300u * 96u : 0u;
+    const uint16_t a = now.b->control(adc, 96, k < 250 ? 0 : 96);
+    const uint16_t b = later.b->control(adc, 96, k < 250 ? 0 : 96);
+    ASSERT_EQ(a, b) << "tick " << k;
+    now.b->report();
+    later.b->report();
+    EXPECT_EQ(later.b->row_waits(), true) << "tick " << k;
+    while (!now.b->plan()) {
+    }
+    while (!later.b->plan()) {
+    }
+    if (k % 7 != 3) later.b->telemetry();  // (every 7th tick no time is left for the row)
+    if (k == 101) {  // a line while a row waits: the row goes first, as it did in report()
+      for (Bench<true>* t : {&now, &later}) {
+        for (char c : std::string("status\n"))
+          if (t->b->rx(c)) t->b->handle_line();
+      }
+    }
+  }
+  later.b->telemetry();
+  EXPECT_FALSE(later.b->row_waits());
+  ASSERT_GT(now.lines.size(), 300u);
+  int faults = 0;
+  for (const std::string& l : now.lines) faults += l.find("# fault sensor") == 0;
+  EXPECT_EQ(faults, 1);
+  EXPECT_EQ(later.lines, now.lines);
 }
 
 // No planning time at all (plan() never called) is safe: the preview then only follows the

@@ -204,6 +204,32 @@ TEST(Preview, IdlePlanningTracksLikeInTickPlanning) {
   }
 }
 
+// Planning between ticks, the host's loop gives plan_step() the passes of the config it runs
+// (PreviewConfig::plan_passes, the board's rule): with 2 grid steps a tick, a lead sample and 2
+// grid steps, whatever the default config plans. The run equals one with 3 passes set by hand and
+// not one with the default config's 5 (so the pass count shows in the run).
+TEST(Preview, IdlePassesFollowTheConfig) {
+  RunSetup s = preview_setup(true, true);
+  s.duration_s = 30.0;
+  s.preview.plan_in_step = false;
+  s.preview.steps_per_tick = 2;
+  RunSetup three = s, five = s;
+  three.idle_plan_steps = 3;
+  five.idle_plan_steps = 1 + sma::PreviewConfig().steps_per_tick;
+  ASSERT_NE(five.idle_plan_steps, 3);
+  std::vector<sma_host::Sample> a, b, c;
+  run<float>(s, &a);
+  run<float>(three, &b);
+  run<float>(five, &c);
+  ASSERT_EQ(a.size(), b.size());
+  bool differs = false;
+  for (size_t k = 0; k < a.size(); ++k) {
+    ASSERT_EQ(a[k].v, b[k].v) << "tick " << k;
+    differs = differs || a[k].v != c[k].v;
+  }
+  EXPECT_TRUE(differs);
+}
+
 // NaN in: heater off.
 TEST(Preview, NanGivesZeroVolts) {
   const sma::Params p;

@@ -9,12 +9,12 @@ Runs (the controller chosen by `mode`, the trade-off by `cool 1`): the paper's s
 scored period is the second: sma_metrics drops the first), and the multi-step's first 125 s (up-steps
 and the 0.8 -> 0.5 mm down-step). Metrics of sma_metrics on the measured position, whole run with the
 falling phase (issue 13). Pass: sine max <= 0.12 mm, RMS <= 0.05 mm, falling max <= 0.12 mm, each
-below inverse + PID's; steps RMS <= 0.05 mm and below inverse + PID's, falling max below it,
+below inverse + PID's (whose sine RMS is <= 0.1 mm); steps RMS <= 0.05 mm and below inverse + PID's, falling max below it,
 wrong-way <= 0.03 mm; the preview's control section <= 16000 cycles in both; the plan passes of
-every tick done before the next on the sine, on <= 1 % of the multi-step's ticks not (the board
-runs the plan the host's board loop proves: sma::kPlanPasses a tick, Board::plan_short; the Mega's
-time does not always hold them on the steps, docs/control.md section 19). Prints the table and
-writes DIR/fil_preview.json.
+every tick done before the next in both (the board runs the plan the host's board loop proves:
+Board::plan_passes() a tick, Board::plan_short; the telemetry row after the passes,
+docs/control.md section 22) and no tick late by more than 50 us. Prints the table and writes
+DIR/fil_preview.json.
 """
 import argparse
 import concurrent.futures
@@ -67,15 +67,15 @@ def main():
             res[f"{t}_{m}"] = fu.result()
 
     print("| test | controller | max mm | RMS mm | max rise | max fall | wrong-way after / before a step | SSE mm | "
-          "control cycles max/mean | plan cut short |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "control cycles max/mean | plan cut short | tick jitter us |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for t, _, _ in RUNS:
         for m, label in MODES:
             r = res[f"{t}_{m}"]
             c = r["cycles"]
             print(f"| {t} | {label} | {r['max_mm']:.4f} | {r['rms_mm']:.4f} | {r['max_rise_mm']:.4f} | "
                   f"{r['max_fall_mm']:.4f} | {r['wrong_way_mm']:.4f} / {r['wrong_way_before_mm']:.4f} | {r['sse_mm']:.4f} | "
-                  f"{c['control_cycles_max']}/{c['control_cycles_mean']:.0f} | {c['plan_short_ticks']} |")
+                  f"{c['control_cycles_max']}/{c['control_cycles_mean']:.0f} | {c['plan_short_ticks']} | {c['tick_jitter_us']:.1f} |")
     with open(os.path.join(a.out, "fil_preview.json"), "w") as f:
         json.dump(res, f, indent=1)
 
@@ -85,6 +85,10 @@ def main():
         ("sine max <= 0.12 mm", s["max_mm"] <= 0.12),
         ("sine RMS <= 0.05 mm", s["rms_mm"] <= 0.05),
         ("sine falling max <= 0.12 mm", s["max_fall_mm"] <= 0.12),
+        # The comparison row itself tracks (main: RMS 0.074 mm; a wire never heated: 0.48 mm, as a
+        # layout of the Board's members made the Mega's Controller put out 0 V, docs/control.md
+        # section 22).
+        ("inverse + PID tracks the sine: RMS <= 0.1 mm", sf["rms_mm"] <= 0.1),
         ("sine max below inverse + PID", s["max_mm"] < sf["max_mm"]),
         ("sine RMS below inverse + PID", s["rms_mm"] < sf["rms_mm"]),
         ("sine falling max below inverse + PID", s["max_fall_mm"] < sf["max_fall_mm"]),
@@ -98,11 +102,13 @@ def main():
         # the Mega image (3-byte calls: slower than the Uno on the same code).
         ("sine control section <= 16000 cycles", s["cycles"]["control_cycles_max"] <= 16000),
         ("steps control section <= 16000 cycles", p["cycles"]["control_cycles_max"] <= 16000),
-        # The tick's plan passes done before the next tick: the board runs the host's plan. The
-        # multi-step's heaviest ticks do not leave the Mega the time for all (56-57 of 12 519 ticks
-        # measured, its figures those of any pass count); the sine's always do.
+        # The tick's plan passes done before the next tick: the board runs the host's plan (the
+        # telemetry row after the passes, or in the next tick when they leave no time for it).
         ("sine: no tick cut the plan short", s["cycles"]["plan_short_ticks"] == 0),
-        ("steps: <= 1 % of the ticks cut the plan short", p["cycles"]["plan_short_ticks"] <= 0.01 * p["cycles"]["ticks"]),
+        ("steps: no tick cut the plan short", p["cycles"]["plan_short_ticks"] == 0),
+        # ... without making a tick late: the row waits rather than push the next tick.
+        ("sine: tick jitter <= 50 us", s["cycles"]["tick_jitter_us"] <= 50.0),
+        ("steps: tick jitter <= 50 us", p["cycles"]["tick_jitter_us"] <= 50.0),
     ]
     bad = [n for n, ok in checks if not ok]
     for n, ok in checks:

@@ -69,6 +69,7 @@ struct Options {
   std::string elf;
   std::string mcu = "atmega328p";  // --mcu: the Uno's, or atmega2560 (the Mega image)
   std::string script, log, cycles_json;
+  std::string pass_trace;  // --pass-trace FILE
   double duration = 10.0;
   double speed = 1.0;  // --realtime pacing: simulated seconds per wall-clock second
   bool pty = false, native = false, quiet = false, stamp = false, realtime = false;
@@ -98,6 +99,8 @@ void usage() {
           "  (neither --script nor --pty: stdin lines are sent as they come)\n"
           "  --log FILE          write the telemetry (header + rows) received to a CSV rig log\n"
           "  --cycles-json FILE  cycles of the control section (GPIOR0 markers), tick rate and jitter\n"
+          "  --pass-trace FILE   (preview image) one line per plan pass: tick, pass, start and length\n"
+          "                      in cycles from the tick's start, 1 if it finished the tick's planning\n"
           "  --noise-mm X        RMS displacement noise of the simulated sensor (mm)\n"
           "  --seed N            noise seed\n"
           "  --params FILE.json  the simulated wire: Table II keys, m, loops and hidden effects\n"
@@ -238,6 +241,12 @@ struct Stats {
   uint64_t t_start = 0, t_prev_start = 0;
   uint64_t ctl_max = 0, ctl_sum = 0, ctl_n = 0;
   uint64_t tick_max = 0, tick_sum = 0;
+  // The preview's plan passes between ticks (GPIOR0 4 before a pass, 5 after, 6 after the one that
+  // finished the tick's planning): the longest first pass (the lead sample) and other pass, and
+  // the latest end of a tick's planning, from the tick's start.
+  uint64_t pass_start = 0, pass_first_max = 0, pass_other_max = 0, plan_done_max = 0;
+  unsigned pass_n = 0;  // passes since the tick
+  bool plan_done = false;  // this tick's planning is done (later calls do nothing: not counted)
   uint64_t iv_min = UINT64_MAX, iv_max = 0;
   double iv_max_s = 0;
   double first_tick_s = -1, last_tick_s = -1;
@@ -309,6 +318,8 @@ void write_json(const Options& o, const Stats& st, const char* variant, double s
           "  \"ticks_heating_after_fault\": %llu,\n"
           "  \"uart_bytes_in\": %llu,\n  \"uart_bytes_out\": %llu,\n"
           "  \"wdtcsr\": %u,\n  \"plan_short_ticks\": %u,\n"
+          "  \"plan_first_pass_cycles_max\": %llu,\n  \"plan_pass_cycles_max\": %llu,\n"
+          "  \"plan_done_cycles_max\": %llu,\n"
           "  \"sram_never_touched_bytes\": %u,\n  \"sp_min\": %u,\n  \"sp_min_after_setup\": %u,\n  \"sp_min_pc\": %u,\n"
           "  \"sp_min_s\": %.4f\n}\n",
           variant, sim_s, (unsigned long long)st.ticks, rate, (unsigned long long)st.ctl_max,
@@ -318,8 +329,21 @@ void write_json(const Options& o, const Stats& st, const char* variant, double s
           o.fault_at,
           st.fault_visible_cycle == UINT64_MAX ? -1.0 : st.fault_visible_cycle / static_cast<double>(kFreq),
           st.heater_off_s, (unsigned long long)st.ticks_after_fault_with_heat,
-          (unsigned long long)st.bytes_in, (unsigned long long)st.bytes_out, st.wdtcsr, st.plan_short, st.stack_free, st.sp_min, st.sp_min_run, st.sp_min_pc, st.sp_min_s);
+          (unsigned long long)st.bytes_in, (unsigned long long)st.bytes_out, st.wdtcsr, st.plan_short,
+          (unsigned long long)st.pass_first_max, (unsigned long long)st.pass_other_max,
+          (unsigned long long)st.plan_done_max, st.stack_free, st.sp_min, st.sp_min_run, st.sp_min_pc, st.sp_min_s);
   fclose(f);
+}
+
+// An output file with its first line, or nullptr (said on stderr).
+FILE* open_out(const std::string& path, const char* first_line) {
+  FILE* f = fopen(path.c_str(), "w");
+  if (!f) {
+    fprintf(stderr, "vrig: cannot write %s\n", path.c_str());
+    return nullptr;
+  }
+  fprintf(f, "%s\n", first_line);
+  return f;
 }
 
 // Non-blocking stdin lines (when neither --script nor --pty).
@@ -347,6 +371,7 @@ struct Rig {
   avr_t* avr = nullptr;
   sma::Plant* plant = nullptr;
   FILE* truth = nullptr;  // --truth
+  FILE* pass_trace = nullptr;  // --pass-trace: one line per plan pass
   long plant_ms = 0;
   // The wire's true displacement (no sensor effect, no noise) every 10 ms of plant time.
   void write_truth(double t) {
@@ -448,6 +473,8 @@ struct Rig {
       const double t = now();
       if (opt.flood_from >= 0 && t >= opt.flood_from && t < opt.flood_to) ++st.flood_ticks;
       st.t_start = c;
+      st.pass_n = 0;
+      st.plan_done = false;
       st.tick_sees_fault = st.fault_visible_cycle != UINT64_MAX && c >= st.fault_visible_cycle + kAdcFaultCycles;
       st.last_tick_s = t;
       ++st.ticks;
@@ -465,6 +492,21 @@ struct Rig {
       const uint64_t d = c - st.t_start;
       st.tick_max = sma::max(st.tick_max, d);
       st.tick_sum += d;
+    } else if (st.plan_done) {  // a call after the tick's planning is done: nothing to time
+    } else if (v == 4) {
+      st.pass_start = c;
+      ++st.pass_n;
+    } else if (v == 5 || v == 6) {
+      const uint64_t d = c - st.pass_start;
+      uint64_t& m = st.pass_n == 1 ? st.pass_first_max : st.pass_other_max;
+      m = sma::max(m, d);
+      if (v == 6) {
+        st.plan_done = true;
+        st.plan_done_max = sma::max(st.plan_done_max, c - st.t_start);
+      }
+      if (pass_trace)
+        fprintf(pass_trace, "%llu %u %llu %llu %d\n", (unsigned long long)st.ticks, st.pass_n,
+                (unsigned long long)(st.pass_start - st.t_start), (unsigned long long)d, v == 6);
     }
   }
 };
@@ -728,6 +770,7 @@ int main(int argc, char** argv) {
     else if (a == "--script") o.script = val();
     else if (a == "--log") o.log = val();
     else if (a == "--cycles-json") o.cycles_json = val();
+    else if (a == "--pass-trace") o.pass_trace = val();
     else if (a == "--pty") o.pty = o.realtime = true;
     else if (a == "--realtime") o.realtime = true;
     else if (a == "--speed") o.speed = atof(val());
@@ -809,14 +852,9 @@ int main(int argc, char** argv) {
     }
     fprintf(rig.out.log, "# rig: vrig %s noise_mm=%g\n", o.native ? "native" : o.elf.c_str(), o.noise_mm);
   }
-  if (!o.truth.empty()) {
-    rig.truth = fopen(o.truth.c_str(), "w");
-    if (!rig.truth) {
-      fprintf(stderr, "vrig: cannot write %s\n", o.truth.c_str());
-      return 2;
-    }
-    fprintf(rig.truth, "t_s,true_mm\n");
-  }
+  if (!o.truth.empty() && !(rig.truth = open_out(o.truth, "t_s,true_mm"))) return 2;
+  if (!o.pass_trace.empty() && !(rig.pass_trace = open_out(o.pass_trace, "# tick pass start_cycles length_cycles done")))
+    return 2;
   sma::RigOptions ro;
   ro.noise_mm = o.noise_mm;
   ro.v_supply = RIG_V_SUPPLY;
@@ -826,6 +864,7 @@ int main(int argc, char** argv) {
   const int rc = o.native ? run_native(rig) : run_avr(rig);
   if (rig.out.log) fclose(rig.out.log);
   if (rig.truth) fclose(rig.truth);
+  if (rig.pass_trace) fclose(rig.pass_trace);
   fflush(stdout);
   return rc;
 }

@@ -111,7 +111,7 @@ class BoardLoop {
 
   // One tick: the plant runs one tick at the held voltage while the ADC samples it, then the
   // board's control section on those samples, its report, and the idle work before the next:
-  // the preview's plan until the tick's planning is done (Board::plan(): sma::kPlanPasses, the
+  // the preview's plan until the tick's planning is done (Board::plan(): Board::plan_passes(), the
   // firmware's rule too).
   Tick tick() {
     uint32_t sum = 0;

@@ -60,9 +60,9 @@ struct RunSetup {
   sma::ControllerConfig config;
   sma::PreviewConfig preview;     // Mode::Preview (dt and v_max come from config)
   // preview.plan_in_step = false: plan_step() calls after each tick's step() (the board's idle
-  // time between ticks) on the Controller path; the Board's runs keep the Board's rule
-  // (Board::plan(), the same default).
-  int idle_plan_steps = sma::kPlanPasses;
+  // time between ticks) on the Controller path; < 0: the config's, preview.plan_passes() (the
+  // Board's rule, Board::plan()).
+  int idle_plan_steps = -1;
   sma::Mode mode = sma::Mode::FeedforwardPid;
   sma::Reference reference = sma::Reference::sine();
   Condition condition;
@@ -143,8 +143,9 @@ std::vector<Sample> run_preview_loop_on(PlantT& plant, const RunSetup& s, Watch 
   return run_loop_on<T>(plant, s, ref, [&](double t, T r, double meas) {
     auto future = [&](T tau) { return ref.at(t + sma::to_double(tau)); };
     const Command c{sma::to_double(ctl.step(r, future, sma::from_double<T>(meas))), 0.0};
+    const int passes = s.idle_plan_steps < 0 ? pc.plan_passes() : s.idle_plan_steps;
     if (!pc.plan_in_step)
-      for (int i = 0; i < s.idle_plan_steps; ++i)
+      for (int i = 0; i < passes; ++i)
         if (ctl.plan_step(future)) break;
     watch(ctl);
     return c;

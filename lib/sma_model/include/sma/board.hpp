@@ -57,16 +57,11 @@ inline void* operator new(size_t, void* place) noexcept { return place; }
 
 namespace sma {
 
-// The preview's plan passes after each tick (Board::plan()): the one pacing rule of the firmware,
-// the host's board loop and the tests, so the board runs what the host proves whatever its code's
-// speed. The first pass samples the next tick's lead reference, the others are grid steps
-// (PreviewController::plan_step): the grid steps a tick that plans in step() simulates
-// (PreviewConfig::steps_per_tick), one grid step less lets the sine fall behind (docs/control.md
-// section 19). On the 16 MHz AVR the passes (the lead <= ~44 k cycles, a grid step <= ~22 k) and
-// the tick (<= 16 k) fit in the 10 ms tick (160 k cycles); a tick that comes first is counted
-// (Board::plan_short()). (From the default config's steps_per_tick: the board's preview runs the
-// default config.)
-constexpr uint8_t kPlanPasses = 1 + PreviewConfig().steps_per_tick;
+// The preview's plan passes after each tick (Board::plan()) are its config's
+// PreviewConfig::plan_passes(): the next tick's lead sample, then steps_per_tick grid steps
+// (PreviewController::plan_step). On the 16 MHz AVR the passes (the lead <= ~44 k cycles, a grid
+// step <= ~22 k) and the tick (<= 16 k) fit in the 10 ms tick (160 k cycles); a tick that comes
+// first is counted (Board::plan_short()).
 
 namespace detail {
 // The plan's passes after each tick (Board::plan()); on a board without the preview an empty
@@ -75,8 +70,8 @@ template <bool On>
 struct PlanPace {
   bool pace_done() const { return true; }
   void pace_pass(bool) {}
-  void pace_arm() {}
-  void pace_tick(bool) {}
+  void pace_arm(uint8_t) {}
+  void pace_tick(bool, uint8_t) {}
   uint16_t pace_short() const { return 0; }
 };
 template <>
@@ -85,12 +80,12 @@ struct PlanPace<true> {
   bool pace_done() const { return left_ == 0; }
   // One pass; `complete`: it completed a plan (the tick's planning is done).
   void pace_pass(bool complete) { left_ = complete ? uint8_t(0) : static_cast<uint8_t>(left_ - 1); }
-  void pace_arm() { left_ = kPlanPasses; }
+  void pace_arm(uint8_t passes) { left_ = passes; }
   // A tick: one that came before the last one's passes were done is counted (`planning`: the
   // preview runs).
-  void pace_tick(bool planning) {
+  void pace_tick(bool planning, uint8_t passes) {
     if (left_ && planning && short_ < 0xFFFFu) ++short_;
-    pace_arm();
+    pace_arm(passes);
   }
   uint16_t pace_short() const { return short_; }
 
@@ -99,15 +94,51 @@ struct PlanPace<true> {
   uint16_t short_;  // ticks counted by pace_tick()
 };
 
+// A telemetry row written after the plan's passes (Board::rows_after_plan()): its tick's figures,
+// kept from report() to telemetry() (the next control() overwrites Live's).
+struct LateRow {
+  uint32_t ticks;
+  double v, d_mm, ref_mm;
+  uint16_t counts;
+  bool waits;
+};
+
+// Where report() keeps a row for telemetry() (Board::rows_after_plan()): nothing on a board
+// without the preview. (After the Board's scalars: placed before the others, it shifted every
+// member and the Mega image's ffpid then put out 0 V; docs/control.md section 22.)
+template <bool On>
+struct RowSlot {
+  bool rows_later() const { return false; }
+  void set_rows_later(bool) {}
+  LateRow* late_row() { return nullptr; }
+};
+template <>
+struct RowSlot<true> {
+  bool rows_later() const { return later_; }
+  void set_rows_later(bool later) { later_ = later; }
+  LateRow* late_row() { return &row_; }
+
+ private:
+  bool later_;
+  LateRow row_;
+};
+
 // Rig::preview(), or false for a rig that does not name the feature.
 template <class R>
 constexpr auto rig_preview(int) -> decltype(R::preview()) { return R::preview(); }
 template <class R>
 constexpr bool rig_preview(long) { return false; }
+// Rig::preview_steps_per_tick(), or the default config's.
+template <class R>
+constexpr auto rig_steps_per_tick(int) -> decltype(R::preview_steps_per_tick()) { return R::preview_steps_per_tick(); }
+template <class R>
+constexpr uint8_t rig_steps_per_tick(long) { return PreviewConfig().steps_per_tick; }
 }  // namespace detail
 
 template <class T, class Rig, class Hw>
 class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
+  typedef detail::LateRow LateRow;
+
  public:
   // The preview controller (sma/preview.hpp, Rig::preview()): `mode preview`, `cool W`, the
   // default for references; it plans between ticks (plan()).
@@ -154,6 +185,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   bool line_waiting() const { return v_.x.waiting_ != LineStatus::Pending; }
 
   SMA_NOINLINE void handle_line() {
+    telemetry();  // a row that waits for the plan's passes goes before the reply, as without them
     const LineStatus st = v_.x.waiting_;
     v_.x.waiting_ = LineStatus::Pending;
     if (st == LineStatus::Line) {
@@ -247,7 +279,9 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   }
 
   // After control() (and the PWM written): the tick's figures for status and telemetry, the
-  // telemetry row and a fault announcement of that tick.
+  // telemetry row and a fault announcement of that tick. With rows_after_plan(true) (a board with
+  // the preview) the row (~16 k AVR cycles) and the announcement wait for telemetry(), so that
+  // the plan's passes start that much earlier in the tick (docs/control.md section 22).
   SMA_NOINLINE void report() {
     live_.x.ticks = v_.x.ticks_;
     live_.x.t_ref_s = t_of(v_.x.ticks_ - v_.x.run_start_);
@@ -264,19 +298,47 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
         send();
         v_.x.header_due_ = false;
       }
-      console::telemetry_row(reply_.x, v_.x.ticks_, static_cast<uint16_t>(Rig::tick_hz()), live_.x.v, live_.x.d_mm,
-                             live_.x.ref_mm, static_cast<float>(v_.x.counts_) / static_cast<float>(Rig::pwm_top() + 1UL),
-                             state_.s.plot);
-      send();
+      if (kPreview && v_.x.rows_later()) {
+        LateRow* r = v_.x.late_row();
+        if (r->waits) telemetry();  // the last tick's: no time was left for it after its passes
+        r->ticks = v_.x.ticks_;
+        r->v = live_.x.v;
+        r->d_mm = live_.x.d_mm;
+        r->ref_mm = live_.x.ref_mm;
+        r->counts = v_.x.counts_;
+        r->waits = true;
+      } else {
+        console::telemetry_row(reply_.x, v_.x.ticks_, static_cast<uint16_t>(Rig::tick_hz()), live_.x.v, live_.x.d_mm,
+                               live_.x.ref_mm, static_cast<float>(v_.x.counts_) / static_cast<float>(Rig::pwm_top() + 1UL),
+                               state_.s.plot);
+        send();
+      }
     }
     ++v_.x.ticks_;
-    this->pace_tick(preview_on());  // the next tick's plan passes (plan())
+    constexpr uint8_t kPasses = plan_passes();
+    this->pace_tick(preview_on(), kPasses);  // the next tick's plan passes (plan())
+    if (v_.x.fault_due_ && !row_waits()) announce_fault();
+  }
+  // Telemetry rows after the plan passes (telemetry()), or in report() (the default).
+  void rows_after_plan(bool later) { v_.x.set_rows_later(later); }
+  bool row_waits() { return kPreview && v_.x.rows_later() && v_.x.late_row()->waits; }
+  // The row report() left (and a fault announcement of its tick, after it), or nothing: the
+  // caller writes it when the tick's planning is done and it has the time (~16 k AVR cycles);
+  // otherwise the next report() writes it before its own.
+  void telemetry() {
+    if (!row_waits()) return;
+    LateRow* r = v_.x.late_row();
+    r->waits = false;
+    // (report()'s row, written out again: a shared helper reorders the Uno image's functions, +20 B.)
+    console::telemetry_row(reply_.x, r->ticks, static_cast<uint16_t>(Rig::tick_hz()), r->v, r->d_mm, r->ref_mm,
+                           static_cast<float>(r->counts) / static_cast<float>(Rig::pwm_top() + 1UL), state_.s.plot);
+    send();
     if (v_.x.fault_due_) announce_fault();
   }
 
   // Between ticks, when the caller has ~2 ms before the next one: one bounded step of the
   // preview's plan (PreviewController::plan_step, <= ~22 k AVR cycles in float), at most
-  // kPlanPasses after a tick, fewer when a plan completes. True when the tick's planning is done
+  // plan_passes() after a tick, fewer when a plan completes. True when the tick's planning is done
   // (then a call does nothing): the caller may call it as often as its time allows. Never from an
   // interrupt that can preempt control().
   SMA_NOINLINE bool plan() {
@@ -284,6 +346,9 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     this->pace_pass(!preview_on() || preview().plan_step(Future{this, static_cast<float>(live_.x.t_ref_s)}));
     return this->pace_done();
   }
+  // The plan passes after each tick: those of the preview's config (preview_config(): the rig's
+  // steps_per_tick, PreviewConfig::plan_passes), 0 without the preview.
+  static constexpr uint8_t plan_passes() { return kPreview ? preview_config().plan_passes() : uint8_t(0); }
   // Ticks that came before the last one's planning was done (the caller ran out of time: the board
   // then ran less plan than the host proves).
   uint16_t plan_short() const { return this->pace_short(); }
@@ -449,8 +514,10 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   static float t_of(uint32_t k) { return static_cast<float>(k) * static_cast<float>(1.0 / Rig::tick_hz()); }
   // The reference at t (one copy of ReferenceGen::at for the tick and the preview's future).
   SMA_NOINLINE T ref_at(float t) { return gen().at(t); }
-  static PreviewConfig preview_config() {
+  // The preview's config: the rig's tick, V_max, PWM and (if it names one) steps_per_tick.
+  static constexpr PreviewConfig preview_config() {
     PreviewConfig c;
+    c.steps_per_tick = detail::rig_steps_per_tick<Rig>(0);
     c.dt = 1.0 / Rig::tick_hz();
     c.v_max = Rig::v_max();
     c.v_supply = Rig::v_supply();
@@ -652,6 +719,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   // `rows_before`: rig-log rows were streaming before this command (their header was sent).
   SMA_NOINLINE void apply(const console::Command& c, bool rows_before) {
     using console::Op;
+    constexpr uint8_t kPasses = plan_passes();
     if (c.op == Op::Stop) safety_.x.clear();
     if (c.op == Op::Tlim) safety_.x.set_limit(state_.s.tlim_C);
     if (c.op == Op::Volt || c.op == Op::Train) ctl().set_voltage(from_double<T>(state_.s.volt));
@@ -660,7 +728,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     // tick does not sample it inside the control section.
     if (kPreview && m == Mode::Preview && m != ctl().mode()) {
       preview().start(ctl().wire_temperature(), v_.x.last_d_);
-      this->pace_arm();
+      this->pace_arm(kPasses);
     }
     // Leaving the preview: the controller did not step while it ran; its estimate continues
     // from the preview's (the latch and the inverse model start from it).
@@ -674,7 +742,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
       start_reference();
       v_.x.run_start_ = v_.x.ticks_;
       preview().new_reference();
-      this->pace_arm();
+      this->pace_arm(kPasses);
     }
     // The header once per start of the rows (tele on after off or plot).
     if (c.op == Op::Tele && state_.s.tele && !state_.s.plot && !rows_before) v_.x.header_due_ = true;
@@ -696,7 +764,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   Zeroed<console::Reply> reply_;
   Zeroed<console::Live> live_;
   // The board's scalars, all zero at boot (Zeroed: one memset). g_mm_ is set by construct().
-  struct Vars {
+  struct Scalars {
     LineStatus waiting_;     // Pending
     console::Op model_op_;   // Empty
     uint8_t model_key_;
@@ -712,6 +780,8 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     bool fault_due_;      // "# fault" is due
     bool header_due_;     // the telemetry header is due
   };
+  // (The row slot after the scalars: none on a board without the preview.)
+  struct Vars : Scalars, detail::RowSlot<kPreview> {};
   Zeroed<Vars> v_;
 };
 

@@ -97,6 +97,11 @@ struct PreviewConfig {
   // Plan inside step() (steps_per_tick grid steps a tick), or not: a board whose tick cannot
   // hold a grid step (~7-25 k AVR cycles) sets it false and calls plan_step() in its idle time.
   bool plan_in_step = true;
+  // The passes a caller that plans between ticks gives plan_step() after each tick: the next
+  // tick's lead sample, then the grid steps a tick that plans in step() simulates (one grid step
+  // less lets the sine fall behind, docs/control.md section 19). The one pacing rule of the
+  // board (Board::plan()) and the host's loops, for whatever config they run.
+  constexpr uint8_t plan_passes() const { return steps_per_tick < 255 ? uint8_t(steps_per_tick + 1) : uint8_t(255); }
   double track_s = 0.4;        // pull of the model wire onto the commanded temperature, s
   double offset_tau_s = 1.0;   // integral action: time constant of the offset estimate, s
   double cool_weight = 1.0;    // trade-off: weight of errors while the reference falls
