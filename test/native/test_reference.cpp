@@ -69,6 +69,26 @@ TEST(Training, ACursorPlaysTheSamePlan) {
   }
 }
 
+// A cursor that has walked to the plan's end, asked for an earlier t (a player restarted, a
+// clock that stepped back), plays the plan there: the middle of each cycle's rise, last cycle
+// first, is halfway between the floor and that cycle's peak (not the ramp extended below it).
+TEST(Training, ACursorIsRightWhenTimeGoesBack) {
+  sma::TrainingPlan p;
+  sma::TrainingPlan::Cursor c;
+  p.voltage_at(p.duration() + 1.0, c);
+  ASSERT_EQ(c.k, p.n_peaks);
+  double start[sma::kMaxTrainingPeaks];
+  double t = p.hold_s;
+  for (uint8_t k = 0; k < p.n_peaks; ++k) {
+    start[k] = t;
+    t += p.cycle_s(k);
+  }
+  for (int k = p.n_peaks - 1; k >= 0; --k) {
+    const double rise = (p.peaks[k] - p.floor_V) / p.slope;
+    EXPECT_NEAR(p.voltage_at(start[k] + 0.5 * rise, c), 0.5 * (p.peaks[k] + p.floor_V), 1e-9) << "cycle " << k;
+  }
+}
+
 TEST(Training, ThePapersDecayingRampWithReversalsAndAProbe) {
   const sma::TrainingPlan p;
   EXPECT_EQ(p.check(), nullptr);

@@ -89,14 +89,20 @@ struct TrainingPlan {
   }
   // The same, starting from the cycle `c` names and moving it to the cycle that holds t: a
   // caller that keeps it while t only grows (the firmware, a tick at a time) walks each cycle
-  // once instead of every cycle before t at every call (~1 k AVR cycles a cycle).
+  // once instead of every cycle before t at every call (~1 k AVR cycles a cycle). A t before
+  // the cursor's cycle walks again from the first.
   double voltage_at(double t, Cursor& c) const {
     if (!(t >= hold_s)) return floor_V;  // the first hold (and t < 0, NaN: hold_s >= 0)
     const double ramps = t - hold_s;
     t = ramps - c.t0;
+    uint8_t k = c.k;
+    if (t < 0.0) {
+      k = 0;
+      t = ramps;
+    }
     // One division per call, not two per peak (~500 AVR cycles a division).
     const double inv_slope = 1.0 / slope;
-    for (uint8_t k = c.k; k < n_peaks; ++k) {
+    for (; k < n_peaks; ++k) {
       const double rise = rise_s(k, inv_slope);
       if (t < rise) return floor_V + slope * t;
       t -= rise;  // now from the peak
@@ -108,8 +114,8 @@ struct TrainingPlan {
     }
     // (t >= 0 here.)
     if (t < n_probes * probe_s) {
-      const uint8_t k = static_cast<uint8_t>(t / probe_s);
-      return probes[k < n_probes ? k : n_probes - 1];  // (k == n_probes only by rounding)
+      const uint8_t i = static_cast<uint8_t>(t / probe_s);
+      return probes[i < n_probes ? i : n_probes - 1];  // (i == n_probes only by rounding)
     }
     return 0.0;
   }
