@@ -35,10 +35,11 @@ READERS = {"sub", "sbc", "add", "adc", "and", "or", "eor", "cp", "cpc", "cpse", 
            "sts", "push", "out"}
 ENDS = {"call", "rcall", "ret", "reti", "jmp", "rjmp", "eijmp", "eicall"}
 # Instructions that write their first operand (a register) - every one that can name r30/r31.
+# (mul/muls/mulsu/fmul* write r0:r1, not their operands.)
 WRITERS = {"ldi", "mov", "movw", "ld", "ldd", "lds", "lpm", "elpm", "pop", "in", "add", "adc",
            "sub", "sbc", "subi", "sbci", "and", "andi", "or", "ori", "eor", "com", "neg", "inc",
-           "dec", "lsr", "ror", "asr", "swap", "clr", "ser", "bld", "mul", "muls", "mulsu",
-           "adiw", "sbiw", "cbr", "sbr", "lsl", "rol"}
+           "dec", "lsr", "ror", "asr", "swap", "clr", "ser", "bld", "adiw", "sbiw", "cbr", "sbr",
+           "lsl", "rol"}
 
 
 def operands(text):
@@ -50,15 +51,11 @@ def writes(op, args):
     out = set()
     if op in WRITERS and args:
         first = args[0]
-        if op in ("movw", "adiw", "sbiw"):  # register pairs: rN names the low byte
-            if first in ("r30",):
+        if op in ("movw", "adiw", "sbiw"):  # register pairs: r30 names Z
+            if first == "r30":
                 out |= {"r30", "r31"}
-            elif first == "r31":
-                out.add("r31")
         elif first in HALVES:
             out.add(first)
-    if op in ("mul", "muls", "mulsu", "fmul"):  # results in r0:r1, nothing here
-        out.clear()
     for a in args:  # post-increment / pre-decrement through Z writes Z
         if a in ("Z+", "-Z"):
             out |= {"r30", "r31"}

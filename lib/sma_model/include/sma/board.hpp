@@ -59,9 +59,9 @@ namespace sma {
 
 // The preview's plan passes after each tick (Board::plan()) are its config's
 // PreviewConfig::plan_passes(): the next tick's lead sample, then steps_per_tick grid steps
-// (PreviewController::plan_step). On the 16 MHz AVR the passes (the lead <= ~44 k cycles, a grid
-// step <= ~22 k) and the tick (<= 16 k) fit in the 10 ms tick (160 k cycles); a tick that comes
-// first is counted (Board::plan_short()).
+// (PreviewController::plan_step). On the 16 MHz Mega the passes (the lead <= ~50 k cycles, a grid
+// step ~8-35 k) and the tick (<= 16 k; the telemetry row after the passes) fit in the 10 ms tick
+// (160 k cycles); a tick that comes first is counted (Board::plan_short()).
 
 namespace detail {
 // The plan's passes after each tick (Board::plan()); on a board without the preview an empty
@@ -104,8 +104,7 @@ struct LateRow {
 };
 
 // Where report() keeps a row for telemetry() (Board::rows_after_plan()): nothing on a board
-// without the preview. (After the Board's scalars: placed before the others, it shifted every
-// member and the Mega image's ffpid then put out 0 V; docs/control.md section 22.)
+// without the preview.
 template <bool On>
 struct RowSlot {
   bool rows_later() const { return false; }
@@ -337,7 +336,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   }
 
   // Between ticks, when the caller has ~2 ms before the next one: one bounded step of the
-  // preview's plan (PreviewController::plan_step, <= ~22 k AVR cycles in float), at most
+  // preview's plan (PreviewController::plan_step, <= ~35 k AVR cycles in float), at most
   // plan_passes() after a tick, fewer when a plan completes. True when the tick's planning is done
   // (then a call does nothing): the caller may call it as often as its time allows. Never from an
   // interrupt that can preempt control().
@@ -780,7 +779,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     bool fault_due_;      // "# fault" is due
     bool header_due_;     // the telemetry header is due
   };
-  // (The row slot after the scalars: none on a board without the preview.)
+  // (The row slot after the scalars, zeroed with them: none on a board without the preview.)
   struct Vars : Scalars, detail::RowSlot<kPreview> {};
   Zeroed<Vars> v_;
 };
