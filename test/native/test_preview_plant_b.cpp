@@ -6,6 +6,7 @@
 // whole-run metrics on both of the paper's references and both re-heat readings.
 #include <gtest/gtest.h>
 #include "sma/console.hpp"
+#include "sma/fixed.hpp"
 #include "sma_host/metrics.hpp"
 #include "sma_host/plant_b_rig.hpp"
 
@@ -43,5 +44,44 @@ TEST(PreviewOnPlantB, BestOfThreeOnBothReadings) {
       else EXPECT_LE(pv.wrong_way_mm, 0.03) << what;
     }
 }
+
+// Plant B's convection 10 % off the model's either way (h 148.5 / 181.5 against the model's 165):
+// the heat-loss observer (heat_gain.hpp) learns the gain on a wire it was not written with, in
+// float and in Q16.16. Every step of the multi-step held (SSE <= 0.01 mm), no overshoot beyond
+// 0.03 mm within 10 s, the sine's whole-period max <= 0.12 mm (the limits). Without the
+// observer each run misses the SSE or the overshoot (float SSE 0.017 / 0.033 mm, Q16.16 overshoot
+// 0.18 / 0.081 mm; checked below, so that the test can fail).
+template <class T>
+void holds_with_h_off_on_b(const char* scalar) {
+  for (double h_scale : {0.9, 1.1})
+    for (bool observe : {true, false}) {
+      sma_host::plant_b::Wire w;
+      w.h *= h_scale;
+      w.return_point_memory = true;
+      RunSetup st;
+      st.mode = sma::Mode::Preview;
+      st.condition = sma_host::Condition::rig_like();
+      if (!observe) st.preview.heat_gain_memory_s = 0.0;
+      st.reference = sma::Reference::multi_step();
+      sma_host::plant_b::RigB rig_s(w, sma_host::plant_b::WireEffects(), st.condition.rig, st.config.dt);
+      const std::vector<sma_host::Sample> rs = sma_host::run_closed_loop_on<T>(rig_s, st);
+      const double sse = sma_host::step_metrics(rs, st.reference.step_s).sse_mm;
+      const double overshoot = sma_host::step_overshoot_mm(rs, st.reference.step_s, 10.0);
+      if (!observe) {
+        EXPECT_TRUE(sse > 0.01 || overshoot > 0.03)
+            << scalar << ", wire h x" << h_scale << " without the observer: SSE " << sse << ", overshoot " << overshoot;
+        continue;
+      }
+      EXPECT_LE(sse, 0.01) << scalar << ", wire h x" << h_scale;
+      EXPECT_LE(overshoot, 0.03) << scalar << ", wire h x" << h_scale;
+      st.reference = sma::Reference::sine();
+      sma_host::plant_b::RigB rig_n(w, sma_host::plant_b::WireEffects(), st.condition.rig, st.config.dt);
+      const std::vector<sma_host::Sample> rn = sma_host::run_closed_loop_on<T>(rig_n, st);
+      EXPECT_LE(sma_host::sine_metrics(rn, st.reference.sine_period_s).max_mm, 0.12) << scalar << ", wire h x" << h_scale;
+    }
+}
+
+TEST(PreviewOnPlantB, HeatLossOffTenPercentLearnedInFloat) { holds_with_h_off_on_b<float>("float"); }
+TEST(PreviewOnPlantB, HeatLossOffTenPercentLearnedInFixed) { holds_with_h_off_on_b<sma::Fixed>("Q16.16"); }
 
 }  // namespace
