@@ -164,21 +164,6 @@ class HeatLossObserver {
     kc_ = (k_ - T(1)) * c_;
   }
 
-  // A hold where the wire cools at `cooling` K a tick while the model wire, at rise = T - T_a,
-  // rests (eq 1 balanced at k^): the wire loses C cooling / dt more than the model wire's
-  // k^ G rise, i.e. its gain is higher by C cooling / (dt G rise) = cooling / (c rise).
-  T add_cooling(T cooling, T rise) {
-    if (!(rise > T(1))) return T(0);
-    const T k_old = k_;
-    adjust(cooling / (c_ * rise));
-    return k_ - k_old;
-  }
-  // The gain moved by dk (clamped to the plausible range).
-  void adjust(T dk) {
-    k_ = clamp(k_ + dk, k_lo_, k_hi_);
-    kc_ = (k_ - T(1)) * c_;
-  }
-
   T gain() const { return k_; }
   T sensitivity() const { return S_; }  // dT/dk along the model wire's path, K
   // (k^ - 1) G dt / C: the model wire's extra loss per tick and kelvin above ambient.

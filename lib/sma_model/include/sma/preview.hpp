@@ -244,8 +244,7 @@ class PreviewCore {
         shift_after_(static_cast<uint16_t>(1.0 / cfg.dt + 0.5)),
         reapproach_(from_double<T>(cfg.reapproach_mm)),
         stale_offset_(from_double<T>(cfg.stale_offset_mm)),
-        reapproach_after_(static_cast<uint16_t>(3.5 / cfg.dt + 0.5)),
-        rise_gain_(from_double<T>(cfg.dt / 0.4 * cfg.dt / 1.2)) {
+        reapproach_after_(static_cast<uint16_t>(3.5 / cfg.dt + 0.5)) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -388,16 +387,12 @@ class PreviewCore {
       // the other calls keep their pace).
       if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();
       if (shift_due_) learn_shift();
-      if (SMA_PREVIEW_HEAT_LOSS && rise_due_) learn_cooling();
-      if (SMA_PREVIEW_HEAT_LOSS && revert_due_) unlearn_cooling();
       if (reapproach_due_) reapproach();
       prepare_voltages();
       return false;
     }
     if (SMA_PREVIEW_HEAT_LOSS && obs_pending_) observe_heat();  // in-step planning
     if (shift_due_) learn_shift();
-    if (SMA_PREVIEW_HEAT_LOSS && rise_due_) learn_cooling();
-    if (SMA_PREVIEW_HEAT_LOSS && revert_due_) unlearn_cooling();
     if (reapproach_due_) {
       reapproach();
       if (lead_ready_) prepare_voltages();
@@ -469,37 +464,6 @@ class PreviewCore {
       above_ticks_ = 0;
       reapproach_due_ = true;
     }
-    // (e) A hold on the heating branch, the model wire at rest, the wire above the hold and moving
-    // up: taken for the rise of a peak it passed (eqs 5-6: it cools, its heat loss is higher than
-    // the model wire's at this voltage). The gain is raised by the rate until the wire rests; if
-    // more heat made the move faster (the wire was on its heating curve), back to the gain of the
-    // slowest move. Once at rest, re-approached from its loop (c).
-    if (held_ticks_ == 0) cool_seen_ = false;  // a new hold: learn again
-    const bool watch = peak_watch_ && !cool_seen_ && heating_ && held_ticks_ > 0 && abs(deps_ * mech_.g) < T(0.002) &&
-                       x_fast_ - ref > reapproach_;
-    if (watch && !(moving > lag_guard_) && rise_learned_) {
-      cool_seen_ = true;  // at rest again: learned
-      reapproach_due_ = true;  // and re-approached from its loop at once (c)
-    }
-    rise_due_ = watch && moving > lag_guard_;
-    if (rise_due_ && !rise_learned_) {
-      rise_learned_ = true;
-      x_peak_ = x_fast_;
-      rise_ref_ = moving;
-      hold_dk_ = T(0);
-    }
-    if (watch && rise_learned_ && moving < rise_ref_) {
-      rise_ref_ = moving;
-      k_at_min_ = heat_.gain();
-    }
-    if (watch && rise_learned_ && moving > rise_ref_ + lag_guard_) {
-      // More heat made the move faster: not the rise but the heating curve. Undo, stop.
-      rise_due_ = false;
-      revert_due_ = true;
-      cool_seen_ = true;
-    }
-    if (held_ticks_ == 0) rise_learned_ = false;
-    rise_move_ = moving;
     // At rest: the wire moves < 2 um in 0.4 s, the model wire < 2 um/s.
     shift_due_ = shift_gain_ > T(0) && held_ticks_ > shift_after_ && resting && est_.heating() &&
                  abs(deps_ * mech_.g) < T(0.002);
@@ -517,26 +481,6 @@ class PreviewCore {
     shift_ = shift_ + dshift;
     curves_.shift_heating(dshift);
     reanchor_heating(T_est_);
-  }
-
-  // (e) The wire rides the rise of the peak it passed (eqs 5-6, the rate j_i / (T_i - T_ii) of the
-  // loop a cooling from the model wire's point opens) while the model wire rests at the same
-  // voltage: it cools at (its move a tick) / (g rate), which eq 1 says is a heat-loss gain higher
-  // than k^ (HeatLossObserver::add_cooling). Taken at the pace of the move's estimate (0.4 s).
-  SMA_PREVIEW_NOINLINE void learn_cooling() {
-    rise_due_ = false;
-    CoolingLoop<T> L = curves_.start_loop(T_est_, eps_est_, true);
-    curves_.finish_loop(L);
-    const T rate = mech_.g * L.rise_rate;  // mm/K
-    if (!(rate > T(0.005))) return;
-    hold_dk_ = hold_dk_ + heat_.add_cooling(rise_gain_ * rise_move_ / rate, T_est_ - thermal_.T_a);
-    loss_rate_ = heat_.loss_correction() * inv_dt_;
-  }
-  SMA_PREVIEW_NOINLINE void unlearn_cooling() {
-    revert_due_ = false;
-    heat_.adjust(k_at_min_ - heat_.gain());
-    hold_dk_ = T(0);
-    loss_rate_ = heat_.loss_correction() * inv_dt_;
   }
 
   // The model wire re-anchored on the (major) heating curve at Tn, its loop memory reset there;
@@ -567,7 +511,7 @@ class PreviewCore {
   SMA_PREVIEW_NOINLINE void reapproach() {
     reapproach_due_ = false;
     const T eps_w = fraction(x_fast_);
-    const T eps_peak = rise_learned_ ? fraction(x_peak_) : max(eps_w - (curves_.start_loop(T_est_, eps_w, true).top - eps_w), T(0));
+    const T eps_peak = max(eps_w - (curves_.start_loop(T_est_, eps_w, true).top - eps_w), T(0));
     if (shift_gain_ > T(0)) {
       const T dshift = clamp(curves_.heat_temperature(eps_peak) - T_est_, T(-5), T(5));
       shift_ = shift_ + dshift;
@@ -965,12 +909,6 @@ class PreviewCore {
   bool reapproach_due_;
   T x_fast_ = T(0), x_slow_ = T(0);    // the measurement low-passed over 0.2 s and 0.6 s
   bool x_init_;
-  bool peak_watch_ = true;
-  bool cool_seen_ = false, rise_due_ = false, rise_learned_ = false;
-  T rise_move_ = T(0), x_peak_ = T(0), rise_ref_ = T(0), hold_dk_ = T(0);
-  bool revert_due_ = false;
-  T k_at_min_ = T(1);
-  T rise_gain_;  // dt / 0.4 s (a move over 0.4 s to a tick) x dt / 0.4 s (the pace)
   T held_ref_ = T(-1);
   uint16_t held_ticks_;                // ticks the reference has held (within the deadband)
   bool shift_due_;
