@@ -84,7 +84,8 @@ class Pid {
   T integral() const { return integral_; }
 
  private:
-  T kp_ = T(0), ki_dt_ = T(0), d_keep_ = T(0), d_gain_ = T(0), i_zone_ = T(1);
+  // The coefficients set_gains() sets (it reads only kp_ before: 0 at construction).
+  T kp_ = T(0), ki_dt_, d_keep_, d_gain_, i_zone_;
   T integral_ = T(0), meas_prev_ = T(0), d_ = T(0), e_prev_ = T(0);
 };
 
