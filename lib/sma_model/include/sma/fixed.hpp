@@ -201,8 +201,8 @@ inline uint32_t mul32x16_portable(uint32_t a, uint16_t b) {
 #endif
 
 // floor(a * b / 2^16): a 32x16 product keeping the top 32 bits, exact.
-SMA_FIXED_ALWAYS_INLINE uint32_t mul32x16(uint32_t a, uint16_t b) {
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+SMA_FIXED_ALWAYS_INLINE uint32_t mul32x16(uint32_t a, uint16_t b) {
   uint32_t r;  // bytes 2..5 of the 48-bit product
   uint8_t p1;  // byte 1, for its carries
   uint8_t zero;
@@ -241,10 +241,10 @@ SMA_FIXED_ALWAYS_INLINE uint32_t mul32x16(uint32_t a, uint16_t b) {
       : [a] "r"(a), [b] "r"(b)
       : "r0");
   return r;
-#else
-  return mul32x16_portable(a, b);
-#endif
 }
+#else
+inline uint32_t mul32x16(uint32_t a, uint16_t b) { return mul32x16_portable(a, b); }
+#endif
 
 // floor(a * b / 2^32), exact.
 inline uint32_t mulhi32_portable(uint32_t a, uint32_t b) {
@@ -1096,11 +1096,11 @@ constexpr bool is_finite(Fixed) { return true; }
 // other 32-bit shifts into a bit-per-iteration loop of ~5 cycles per bit.
 namespace fixed_detail {
 
-// Haversine kernel: h = (1 - cos(pi x)) / 2 for x in [0, 0.5], given w = (2x)^2 in Q0.30
-// (w30 <= 2^30). h = w * B(w) with B a degree-2 minimax fit on w in [0, 1]
-// (|error of h| <= 3.9e-6). The small inner term is evaluated on 16 bits, the last two products
-// use all of w30, so rounding adds ~3e-6 and h is non-decreasing in w. Returns h in Q0.30.
-inline uint32_t haversine_q30(uint32_t w30) {
+// Haversine kernel: h = (1 - cos(pi x)) / 2 for x in [0, 0.5], h = w * B(w) with w = (2x)^2 and
+// B a degree-2 minimax fit on w in [0, 1] (|error of h| <= 3.9e-6). This is B(w) in Q0.32 for w
+// given in Q0.30 (w30 <= 2^30); the small inner term is evaluated on 16 bits, the outer product
+// uses all of w30.
+inline uint32_t haversine_b32(uint32_t w30) {
   // B(w) = b0 - w (b1 - w b2), b0 = 0.61677086209, b1 = 0.12634892434, b2 = 0.00958198370.
   constexpr uint32_t kB0 = UINT32_C(2649010682);  // b0 in Q0.32
   constexpr uint16_t kB1 = 33122;                 // b1 in Q0.18
@@ -1108,10 +1108,19 @@ inline uint32_t haversine_q30(uint32_t w30) {
   const uint16_t w14 = hi16(w30);                 // Q2.14, enough for the small term
   // Q14 * Q20 >> 16 = Q18, rounded (truncating here would bias h by up to 3.8e-6).
   const uint16_t q18 = static_cast<uint16_t>(kB1 - hi16(mul16(w14, kB2) + 0x8000u));
-  const uint32_t b32 = kB0 - mul32x16(w30, q18);  // Q30 * Q18 >> 16 = Q32
-  const uint32_t h = mulhi32(w30, b32);           // Q30 * Q32 >> 32 = Q30
+  return kB0 - mul32x16(w30, q18);  // Q30 * Q18 >> 16 = Q32
+}
+
+// h <= 0.5 (Q0.30) keeps the mirrored upper half monotone.
+inline uint32_t half_at_most_q30(uint32_t h) {
   constexpr uint32_t kHalf = UINT32_C(1) << 29;
-  return h < kHalf ? h : kHalf;  // h <= 0.5 keeps the mirrored upper half monotone
+  return h < kHalf ? h : kHalf;
+}
+
+// h in Q0.30 from w in Q0.30: the last product uses all of w30, so rounding adds ~3e-6 and h is
+// non-decreasing in w.
+inline uint32_t haversine_q30(uint32_t w30) {
+  return half_at_most_q30(mulhi32(w30, haversine_b32(w30)));  // Q30 * Q32 >> 32 = Q30
 }
 
 // cos(2 pi p) for a phase p in turns, Q0.32 (the full circle wraps naturally in uint32).
@@ -1322,8 +1331,11 @@ inline Fixed cos_ramp(Fixed x) {
   if (r >= kRawOne) return Fixed::from_raw(kRawOne);
   const bool upper = r > kRawOne / 2;
   const uint16_t xm = static_cast<uint16_t>(upper ? kRawOne - r : r);  // Q0.16, <= 0.5
-  // (2x)^2 in Q0.30 equals x^2 in Q0.32: the product of the Q0.16 raw values, exactly.
-  const uint32_t h32 = haversine_q30(mul16(xm, xm)) << 2;  // Q0.32, <= 2^31
+  // (2x)^2 in Q0.30 equals x^2 in Q0.32: the product of the Q0.16 raw values, exactly. h = w B
+  // = 4 x^2 B in Q0.30 is x^2 B in Q0.32: B times x, then times x again, each a 32x16 product
+  // (their two floors lose < 2^-29 of h; a full 32x32 grid would cost ~150 B more).
+  const uint32_t xb = mul32x16(haversine_b32(mul16(xm, xm)), xm);  // B x in Q0.32
+  const uint32_t h32 = half_at_most_q30(mul32x16(xb, xm)) << 2;    // Q0.32, <= 2^31
   const int32_t h = static_cast<int32_t>(hi16(h32 + 0x8000u));
   return Fixed::from_raw(upper ? kRawOne - h : h);
 }
