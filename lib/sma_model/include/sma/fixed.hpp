@@ -1334,8 +1334,9 @@ inline Fixed cos_ramp(Fixed x) {
   // (2x)^2 in Q0.30 equals x^2 in Q0.32: the product of the Q0.16 raw values, exactly. h = w B
   // = 4 x^2 B in Q0.30 is x^2 B in Q0.32: B times x, then times x again, each a 32x16 product
   // (their two floors lose < 2^-29 of h; a full 32x32 grid would cost ~150 B more).
-  const uint32_t xb = mul32x16(haversine_b32(mul16(xm, xm)), xm);  // B x in Q0.32
-  const uint32_t h32 = half_at_most_q30(mul32x16(xb, xm)) << 2;    // Q0.32, <= 2^31
+  uint32_t h30 = haversine_b32(mul16(xm, xm));  // B, then B x, then B x^2, in Q0.32
+  for (uint8_t i = 0; i < 2; ++i) h30 = mul32x16(h30, xm);  // (a loop: one copy of the product)
+  const uint32_t h32 = half_at_most_q30(h30) << 2;  // Q0.32, <= 2^31
   const int32_t h = static_cast<int32_t>(hi16(h32 + 0x8000u));
   return Fixed::from_raw(upper ? kRawOne - h : h);
 }
