@@ -1100,15 +1100,17 @@ namespace fixed_detail {
 // B a degree-2 minimax fit on w in [0, 1] (|error of h| <= 3.9e-6). This is B(w) in Q0.32 for w
 // given in Q0.30 (w30 <= 2^30); the small inner term is evaluated on 16 bits, the outer product
 // uses all of w30.
-inline uint32_t haversine_b32(uint32_t w30) {
+// The constant and the inner term: B(w) = kHaversineB0 - w q18 (q18 in Q0.18), w given in Q2.14.
+constexpr uint32_t kHaversineB0 = UINT32_C(2649010682);  // b0 in Q0.32
+inline uint16_t haversine_q18(uint16_t w14) {
   // B(w) = b0 - w (b1 - w b2), b0 = 0.61677086209, b1 = 0.12634892434, b2 = 0.00958198370.
-  constexpr uint32_t kB0 = UINT32_C(2649010682);  // b0 in Q0.32
-  constexpr uint16_t kB1 = 33122;                 // b1 in Q0.18
-  constexpr uint16_t kB2 = 10047;                 // b2 in Q0.20
-  const uint16_t w14 = hi16(w30);                 // Q2.14, enough for the small term
+  constexpr uint16_t kB1 = 33122;  // b1 in Q0.18
+  constexpr uint16_t kB2 = 10047;  // b2 in Q0.20
   // Q14 * Q20 >> 16 = Q18, rounded (truncating here would bias h by up to 3.8e-6).
-  const uint16_t q18 = static_cast<uint16_t>(kB1 - hi16(mul16(w14, kB2) + 0x8000u));
-  return kB0 - mul32x16(w30, q18);  // Q30 * Q18 >> 16 = Q32
+  return static_cast<uint16_t>(kB1 - hi16(mul16(w14, kB2) + 0x8000u));
+}
+inline uint32_t haversine_b32(uint32_t w30) {
+  return kHaversineB0 - mul32x16(w30, haversine_q18(hi16(w30)));  // Q30 * Q18 >> 16 = Q32
 }
 
 // h <= 0.5 (Q0.30) keeps the mirrored upper half monotone.
@@ -1334,8 +1336,16 @@ inline Fixed cos_ramp(Fixed x) {
   // (2x)^2 in Q0.30 equals x^2 in Q0.32: the product of the Q0.16 raw values, exactly. h = w B
   // = 4 x^2 B in Q0.30 is x^2 B in Q0.32: B times x, then times x again, each a 32x16 product
   // (their two floors lose < 2^-29 of h; a full 32x32 grid would cost ~150 B more).
-  uint32_t h30 = haversine_b32(mul16(xm, xm));  // B, then B x, then B x^2, in Q0.32
-  for (uint8_t i = 0; i < 2; ++i) h30 = mul32x16(h30, xm);  // (a loop: one copy of the product)
+  // B = b0 - w q18 (haversine_b32), then B x, then B x^2, in Q0.32: three 32x16 products in a
+  // loop, one copy of the product's code.
+  const uint32_t w30 = mul16(xm, xm);
+  uint32_t h30 = w30;
+  uint16_t factor = haversine_q18(hi16(w30));
+  for (uint8_t i = 0; i < 3; ++i) {
+    h30 = mul32x16(h30, factor);
+    if (i == 0) h30 = kHaversineB0 - h30;
+    factor = xm;
+  }
   const uint32_t h32 = half_at_most_q30(h30) << 2;  // Q0.32, <= 2^31
   const int32_t h = static_cast<int32_t>(hi16(h32 + 0x8000u));
   return Fixed::from_raw(upper ? kRawOne - h : h);
