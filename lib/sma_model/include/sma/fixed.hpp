@@ -1323,21 +1323,15 @@ inline Fixed sin(Fixed x) {
   return Fixed::from_raw(x.raw() < 0 ? -s : s);
 }
 
-// cos_ramp(x) = 0.5 [1 - cos(pi x)] for x clamped to [0, 1] (eqs 2, 3 and 11). Hot path: one
-// haversine kernel, no range reduction. Uses the symmetry f(1 - x) = 1 - f(x) so the kernel only
-// sees x <= 0.5. Non-decreasing in x (checked exhaustively by the tests).
-inline Fixed cos_ramp(Fixed x) {
-  using namespace fixed_detail;
-  const int32_t r = x.raw();
-  if (r <= 0) return Fixed::from_raw(0);
-  if (r >= kRawOne) return Fixed::from_raw(kRawOne);
-  const bool upper = r > kRawOne / 2;
-  const uint16_t xm = static_cast<uint16_t>(upper ? kRawOne - r : r);  // Q0.16, <= 0.5
-  // (2x)^2 in Q0.30 equals x^2 in Q0.32: the product of the Q0.16 raw values, exactly. h = w B
-  // = 4 x^2 B in Q0.30 is x^2 B in Q0.32: B times x, then times x again, each a 32x16 product
-  // (their two floors lose < 2^-29 of h; a full 32x32 grid would cost ~150 B more).
-  // B = b0 - w q18 (haversine_b32), then B x, then B x^2, in Q0.32: three 32x16 products in a
-  // loop, one copy of the product's code.
+namespace fixed_detail {
+// The kernels of cos_ramp and cos_ramp_inv on the lower half: x in Q0.16 (<= 0.5) -> the ramp in
+// Q0.32 (<= 2^31).
+
+// h(x) = 0.5 [1 - cos(pi x)]. (2x)^2 in Q0.30 equals x^2 in Q0.32: the product of the Q0.16 raw
+// values, exactly. h = w B = 4 x^2 B in Q0.30 is x^2 B in Q0.32: B = b0 - w q18 (haversine_b32),
+// then B x, then B x^2, three 32x16 products in a loop, one copy of the product's code (their
+// floors lose < 2^-29 of h; a full 32x32 grid would cost ~150 B more).
+inline uint32_t haversine_ramp_q32(uint16_t xm) {
   const uint32_t w30 = mul16(xm, xm);
   uint32_t h30 = w30;
   uint16_t factor = haversine_q18(hi16(w30));
@@ -1346,24 +1340,32 @@ inline Fixed cos_ramp(Fixed x) {
     if (i == 0) h30 = kHaversineB0 - h30;
     factor = xm;
   }
-  const uint32_t h32 = half_at_most_q30(h30) << 2;  // Q0.32, <= 2^31
-  const int32_t h = static_cast<int32_t>(hi16(h32 + 0x8000u));
-  return Fixed::from_raw(upper ? kRawOne - h : h);
+  return half_at_most_q30(h30) << 2;
 }
+// g(y) = acos(1 - 2y) / pi.
+inline uint32_t ramp_inv_half_q32(uint16_t ym) { return ramp_inv_q32(static_cast<uint32_t>(ym) << 16); }
 
-// cos_ramp_inv(y) = acos(1 - 2y) / pi for y clamped to [0, 1] (eqs 15 and 16): the inverse of
-// cos_ramp. Same mirror symmetry; the kernel needs one 16-bit integer square root.
-inline Fixed cos_ramp_inv(Fixed y) {
-  using namespace fixed_detail;
-  const int32_t r = y.raw();
+// The rest of both ramps, one copy for the two: x clamped to [0, 1], the mirror symmetry
+// f(1 - x) = 1 - f(x) so the kernel only sees x <= 0.5, the kernel's Q0.32 rounded to Q16.16.
+// Non-decreasing in x when the kernel is (checked exhaustively by the tests).
+__attribute__((noinline)) inline Fixed mirrored_ramp(Fixed x, bool inverse) {
+  const int32_t r = x.raw();
   if (r <= 0) return Fixed::from_raw(0);
   if (r >= kRawOne) return Fixed::from_raw(kRawOne);
   const bool upper = r > kRawOne / 2;
-  const uint32_t ym = static_cast<uint32_t>(upper ? kRawOne - r : r);  // Q0.16, <= 0.5
-  const uint32_t g32 = ramp_inv_q32(ym << 16);
-  const int32_t g = static_cast<int32_t>(hi16(g32 + 0x8000u));
-  return Fixed::from_raw(upper ? kRawOne - g : g);
+  const uint16_t xm = static_cast<uint16_t>(upper ? kRawOne - r : r);  // Q0.16, <= 0.5
+  const int32_t h = static_cast<int32_t>(hi16((inverse ? ramp_inv_half_q32(xm) : haversine_ramp_q32(xm)) + 0x8000u));
+  return Fixed::from_raw(upper ? kRawOne - h : h);
 }
+}  // namespace fixed_detail
+
+// cos_ramp(x) = 0.5 [1 - cos(pi x)] for x clamped to [0, 1] (eqs 2, 3 and 11). Hot path: one
+// haversine kernel, no range reduction.
+inline Fixed cos_ramp(Fixed x) { return fixed_detail::mirrored_ramp(x, false); }
+
+// cos_ramp_inv(y) = acos(1 - 2y) / pi for y clamped to [0, 1] (eqs 15 and 16): the inverse of
+// cos_ramp. The kernel needs one 16-bit integer square root.
+inline Fixed cos_ramp_inv(Fixed y) { return fixed_detail::mirrored_ramp(y, true); }
 
 // acos(x) for x clamped to [-1, 1], in [0, pi]: acos(x) = pi * cos_ramp_inv((1 - x) / 2), with
 // (1 - |x|) / 2 formed in Q0.32 so the halving loses no bit.
