@@ -1408,8 +1408,9 @@ inline Fixed sqrt(Fixed x) {
       --pairs_left;
     }
   }
-  uint32_t rem;
-  uint32_t root = isqrt32(n, rem);
+  uint32_t rem_out;
+  uint32_t root = isqrt32(n, rem_out);
+  uint32_t rem = rem_out;  // a copy the loop keeps in registers (isqrt32 writes rem_out in memory)
   // Remaining digits: the radicand continues with zero bits. rem <= 2 root < 2^25, so 4 rem fits.
   for (; pairs_left != 0; --pairs_left) {
     rem <<= 2;
