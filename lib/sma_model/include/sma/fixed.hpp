@@ -533,59 +533,73 @@ inline int32_t mul_raw_portable(int32_t a, int32_t b) {
 }
 
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
-// The same algorithm on the AVR, where it matters (see SMA_FIXED_AVR_PRODUCT_GRID): the byte grid
-// of the magnitudes' product, rounding and saturation in one block, with the sign (bit 7 of
-// mul_general_sign()) kept in the T flag. The general case of mul_raw below, which forms |a|,
-// |b| and the sign. The sign's byte is in RAM: as a third argument it would sit in r16, which
-// mul_raw would then save on every multiply (+4 cycles each, ~95 a tick).
+// The general case of mul_raw below (an operand of 256 or more), which forms |a|, |b| and the
+// sign (bit 7 of mul_general_sign()). The sign's byte is in RAM: as a third argument it would sit
+// in r16, which mul_raw would then save on every multiply (+4 cycles each, ~95 a tick).
 inline uint8_t& mul_general_sign() {
   static uint8_t sign;
   return sign;
 }
+inline int32_t mul_raw(int32_t a, int32_t b);
+// No byte grid of its own: two magnitudes of 2^24 or more give a product of 2^32 or more
+// (saturated); otherwise, with |a| = a3 2^24 + a' the larger one (a' < 2^24) and |b| < 2^24,
+//   |a b| / 2^16 = a3 |b| 2^8 + a' |b| / 2^16,
+// an exact integer (three MULs; 2^31 or more saturates) plus mul_raw's short path (both factors
+// below 2^24: it rounds the same bits the full product would, and if it saturates, so does the
+// sum, a3 |b| 2^8 being at least 2^8). The magnitude's sum is below 2^32 (no carry). ~60 cycles
+// more than a grid, on a path the model's magnitudes (below 256) do not take.
 __attribute__((noinline)) inline int32_t mul_raw_general(uint32_t ua, uint32_t ub) {
-  const uint8_t sign = mul_general_sign();
-  uint32_t r;      // product bytes 2..5: the result
-  uint16_t x;      // product bytes 6..7: must end up zero
-  uint8_t p1;      // product byte 1 (its top bit rounds); also a scratch byte
-  uint8_t zero;
-  __asm__(
-      "bst  %[s], 7       \n\t"  // T = sign of the result
-      "clr  %[z]          \n\t"
-      SMA_FIXED_AVR_PRODUCT_GRID
-      "clr  r1            \n\t"  // restore __zero_reg__
-      // Round on bit 15 (top bit of byte 1); a carry out of byte 5 shows up in x.
-      "lsl  %[p1]         \n\t"
-      "adc  %A[r], %[z]   \n\t"
-      "adc  %B[r], %[z]   \n\t"
-      "adc  %C[r], %[z]   \n\t"
-      "adc  %D[r], %[z]   \n\t"
-      "adc  %A[x], %[z]   \n\t"
-      "adc  %B[x], %[z]   \n\t"
-      // Range: the magnitude must be < 2^31 (positive) or <= 2^31 (negative).
-      "or   %A[x], %B[x]  \n\t"
-      "brne 5f            \n\t"
-      "brts 3f            \n\t"
-      "sbrs %D[r], 7      \n\t"
-      "rjmp 9f            \n\t"  // positive and in range: done
-      "rjmp 5f            \n\t"
-      "3:                 \n\t"  // negative: r = -m
-      "mov  %[p1], %[z]   \n\t"
-      "dec  %[p1]         \n\t"
-      SMA_FIXED_AVR_NEGATE("r", "p1")
-      "sbrc %D[r], 7      \n\t"  // -m < 0 for 0 < m <= 2^31: done
+  register uint32_t ra __asm__("r22") = ua;  // the arguments' registers: no moves
+  register uint32_t rb __asm__("r18") = ub;
+  __asm__ volatile(
+      "cp   r22, r18      \n\t"  // |a| >= |b|: swap if not
+      "cpc  r23, r19      \n\t"
+      "cpc  r24, r20      \n\t"
+      "cpc  r25, r21      \n\t"
+      "brcc 1f            \n\t"
+      "movw r26, r22      \n\t"
+      "movw r22, r18      \n\t"
+      "movw r18, r26      \n\t"
+      "movw r26, r24      \n\t"
+      "movw r24, r20      \n\t"
+      "movw r20, r26      \n\t"
+      "1:                 \n\t"
+      "tst  r21           \n\t"  // |b| >= 2^24 too: saturate
+      "brne 8f            \n\t"
+      "mul  r25, r18      \n\t"  // a3 |b| in r30, r31, r26, r27
+      "movw r30, r0       \n\t"
+      "mul  r25, r20      \n\t"
+      "movw r26, r0       \n\t"
+      "mul  r25, r19      \n\t"
+      "add  r31, r0       \n\t"
+      "adc  r26, r1       \n\t"
+      "clr  r1            \n\t"  // restore __zero_reg__ (clr leaves the carry alone)
+      "adc  r27, r1       \n\t"
+      "tst  r27           \n\t"  // a3 |b| 2^8 >= 2^31: saturate
+      "brne 8f            \n\t"
+      "sbrc r26, 7        \n\t"
+      "rjmp 8f            \n\t"
+      "push r30           \n\t"
+      "push r31           \n\t"
+      "push r26           \n\t"
+      "clr  r25           \n\t"  // a'
+      "call %x[mul]       \n\t"  // r22..r25 = a' |b| / 2^16, rounded
+      "pop  r26           \n\t"
+      "pop  r31           \n\t"
+      "pop  r30           \n\t"
+      "add  r23, r30      \n\t"
+      "adc  r24, r31      \n\t"
+      "adc  r25, r26      \n\t"
       "rjmp 9f            \n\t"
-      "mov  %[p1], %A[r]  \n\t"  // otherwise m == 0 (fine) or m > 2^31 (saturate)
-      "or   %[p1], %B[r]  \n\t"
-      "or   %[p1], %C[r]  \n\t"
-      "or   %[p1], %D[r]  \n\t"
-      "breq 9f            \n\t"
-      "5:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
-      SMA_FIXED_AVR_SATURATED("r", "9f")
+      "8:                 \n\t"  // a magnitude signed_saturated saturates in both signs
+      "ldi  r22, 0xFF     \n\t"
+      "ldi  r23, 0xFF     \n\t"
+      "movw r24, r22      \n\t"
       "9:                 \n\t"
-      : [r] "=&r"(r), [x] "=&r"(x), [p1] "=&r"(p1), [z] "=&r"(zero)
-      : [a] "r"(ua), [b] "r"(ub), [s] "r"(sign)
-      : "r0");
-  return as_signed(r);
+      : "+r"(ra), "+r"(rb)
+      : [mul] "i"(&mul_raw)
+      : "r0", "r26", "r27", "r30", "r31", "memory");
+  return signed_saturated(ra, (mul_general_sign() & 0x80u) != 0);
 }
 
 // The Q16.16 multiply of the model's magnitudes (both below 256, i.e. 2^24 raw: temperatures,
