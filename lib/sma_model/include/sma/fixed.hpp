@@ -11,8 +11,8 @@
 // valid for the firmware; bench/avr_math checks it (results hash) and the AVR assembly paths.
 //
 // Measured in simavr (bench/avr_math, avr-g++ 5.4 -Os, cycles per call, float in brackets):
-// add 52 (112), mul 137 (130; magnitudes below 256 take the short path, see mul_raw), div ~900
-// (467), cos_ramp ~350 (~2280), cos_ramp_inv ~700 (~2880), cos ~710 (~1780), acos ~980 (~2470),
+// add 52 (112), mul 124 (130; magnitudes below 256 take the short path, see mul_raw), div ~700
+// (467), cos_ramp ~380 (~1300), cos_ramp_inv ~680 (~2120), cos ~710 (~1780), acos ~960 (~2470),
 // sqrt ~610 (473), exp ~730 (~2110).
 //
 // Range and resolution: [-32768, 32768 - 2^-16], LSB 2^-16 = 1.53e-5.
