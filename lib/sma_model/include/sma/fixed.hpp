@@ -11,8 +11,8 @@
 // valid for the firmware; bench/avr_math checks it (results hash) and the AVR assembly paths.
 //
 // Measured in simavr (bench/avr_math, avr-g++ 5.4 -Os, cycles per call, float in brackets):
-// add 52 (112), mul 137 (130; magnitudes below 256 take the short path, see mul_raw), div ~900
-// (467), cos_ramp ~350 (~2280), cos_ramp_inv ~700 (~2880), cos ~710 (~1780), acos ~980 (~2470),
+// add 52 (112), mul 124 (130; magnitudes below 256 take the short path, see mul_raw), div ~700
+// (467), cos_ramp ~380 (~1300), cos_ramp_inv ~680 (~2120), cos ~710 (~1780), acos ~960 (~2470),
 // sqrt ~610 (473), exp ~730 (~2110).
 //
 // Range and resolution: [-32768, 32768 - 2^-16], LSB 2^-16 = 1.53e-5.
@@ -201,8 +201,8 @@ inline uint32_t mul32x16_portable(uint32_t a, uint16_t b) {
 #endif
 
 // floor(a * b / 2^16): a 32x16 product keeping the top 32 bits, exact.
-SMA_FIXED_ALWAYS_INLINE uint32_t mul32x16(uint32_t a, uint16_t b) {
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+SMA_FIXED_ALWAYS_INLINE uint32_t mul32x16(uint32_t a, uint16_t b) {
   uint32_t r;  // bytes 2..5 of the 48-bit product
   uint8_t p1;  // byte 1, for its carries
   uint8_t zero;
@@ -241,10 +241,10 @@ SMA_FIXED_ALWAYS_INLINE uint32_t mul32x16(uint32_t a, uint16_t b) {
       : [a] "r"(a), [b] "r"(b)
       : "r0");
   return r;
-#else
-  return mul32x16_portable(a, b);
-#endif
 }
+#else
+inline uint32_t mul32x16(uint32_t a, uint16_t b) { return mul32x16_portable(a, b); }
+#endif
 
 // floor(a * b / 2^32), exact.
 inline uint32_t mulhi32_portable(uint32_t a, uint32_t b) {
@@ -533,59 +533,73 @@ inline int32_t mul_raw_portable(int32_t a, int32_t b) {
 }
 
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
-// The same algorithm on the AVR, where it matters (see SMA_FIXED_AVR_PRODUCT_GRID): the byte grid
-// of the magnitudes' product, rounding and saturation in one block, with the sign (bit 7 of
-// mul_general_sign()) kept in the T flag. The general case of mul_raw below, which forms |a|,
-// |b| and the sign. The sign's byte is in RAM: as a third argument it would sit in r16, which
-// mul_raw would then save on every multiply (+4 cycles each, ~95 a tick).
+// The general case of mul_raw below (an operand of 256 or more), which forms |a|, |b| and the
+// sign (bit 7 of mul_general_sign()). The sign's byte is in RAM: as a third argument it would sit
+// in r16, which mul_raw would then save on every multiply (+4 cycles each, ~95 a tick).
 inline uint8_t& mul_general_sign() {
   static uint8_t sign;
   return sign;
 }
+inline int32_t mul_raw(int32_t a, int32_t b);
+// No byte grid of its own: two magnitudes of 2^24 or more give a product of 2^32 or more
+// (saturated); otherwise, with |a| = a3 2^24 + a' the larger one (a' < 2^24) and |b| < 2^24,
+//   |a b| / 2^16 = a3 |b| 2^8 + a' |b| / 2^16,
+// an exact integer (three MULs; 2^31 or more saturates) plus mul_raw's short path (both factors
+// below 2^24: it rounds the same bits the full product would, and if it saturates, so does the
+// sum, a3 |b| 2^8 being at least 2^8). The magnitude's sum is below 2^32 (no carry). ~60 cycles
+// more than a grid, on a path the model's magnitudes (below 256) do not take.
 __attribute__((noinline)) inline int32_t mul_raw_general(uint32_t ua, uint32_t ub) {
-  const uint8_t sign = mul_general_sign();
-  uint32_t r;      // product bytes 2..5: the result
-  uint16_t x;      // product bytes 6..7: must end up zero
-  uint8_t p1;      // product byte 1 (its top bit rounds); also a scratch byte
-  uint8_t zero;
-  __asm__(
-      "bst  %[s], 7       \n\t"  // T = sign of the result
-      "clr  %[z]          \n\t"
-      SMA_FIXED_AVR_PRODUCT_GRID
-      "clr  r1            \n\t"  // restore __zero_reg__
-      // Round on bit 15 (top bit of byte 1); a carry out of byte 5 shows up in x.
-      "lsl  %[p1]         \n\t"
-      "adc  %A[r], %[z]   \n\t"
-      "adc  %B[r], %[z]   \n\t"
-      "adc  %C[r], %[z]   \n\t"
-      "adc  %D[r], %[z]   \n\t"
-      "adc  %A[x], %[z]   \n\t"
-      "adc  %B[x], %[z]   \n\t"
-      // Range: the magnitude must be < 2^31 (positive) or <= 2^31 (negative).
-      "or   %A[x], %B[x]  \n\t"
-      "brne 5f            \n\t"
-      "brts 3f            \n\t"
-      "sbrs %D[r], 7      \n\t"
-      "rjmp 9f            \n\t"  // positive and in range: done
-      "rjmp 5f            \n\t"
-      "3:                 \n\t"  // negative: r = -m
-      "mov  %[p1], %[z]   \n\t"
-      "dec  %[p1]         \n\t"
-      SMA_FIXED_AVR_NEGATE("r", "p1")
-      "sbrc %D[r], 7      \n\t"  // -m < 0 for 0 < m <= 2^31: done
+  register uint32_t ra __asm__("r22") = ua;  // the arguments' registers: no moves
+  register uint32_t rb __asm__("r18") = ub;
+  __asm__ volatile(
+      "cp   r22, r18      \n\t"  // |a| >= |b|: swap if not
+      "cpc  r23, r19      \n\t"
+      "cpc  r24, r20      \n\t"
+      "cpc  r25, r21      \n\t"
+      "brcc 1f            \n\t"
+      "movw r26, r22      \n\t"
+      "movw r22, r18      \n\t"
+      "movw r18, r26      \n\t"
+      "movw r26, r24      \n\t"
+      "movw r24, r20      \n\t"
+      "movw r20, r26      \n\t"
+      "1:                 \n\t"
+      "tst  r21           \n\t"  // |b| >= 2^24 too: saturate
+      "brne 8f            \n\t"
+      "mul  r25, r18      \n\t"  // a3 |b| in r30, r31, r26, r27
+      "movw r30, r0       \n\t"
+      "mul  r25, r20      \n\t"
+      "movw r26, r0       \n\t"
+      "mul  r25, r19      \n\t"
+      "add  r31, r0       \n\t"
+      "adc  r26, r1       \n\t"
+      "clr  r1            \n\t"  // restore __zero_reg__ (clr leaves the carry alone)
+      "adc  r27, r1       \n\t"
+      "tst  r27           \n\t"  // a3 |b| 2^8 >= 2^31: saturate
+      "brne 8f            \n\t"
+      "sbrc r26, 7        \n\t"
+      "rjmp 8f            \n\t"
+      "push r30           \n\t"
+      "push r31           \n\t"
+      "push r26           \n\t"
+      "clr  r25           \n\t"  // a'
+      "call %x[mul]       \n\t"  // r22..r25 = a' |b| / 2^16, rounded
+      "pop  r26           \n\t"
+      "pop  r31           \n\t"
+      "pop  r30           \n\t"
+      "add  r23, r30      \n\t"
+      "adc  r24, r31      \n\t"
+      "adc  r25, r26      \n\t"
       "rjmp 9f            \n\t"
-      "mov  %[p1], %A[r]  \n\t"  // otherwise m == 0 (fine) or m > 2^31 (saturate)
-      "or   %[p1], %B[r]  \n\t"
-      "or   %[p1], %C[r]  \n\t"
-      "or   %[p1], %D[r]  \n\t"
-      "breq 9f            \n\t"
-      "5:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
-      SMA_FIXED_AVR_SATURATED("r", "9f")
+      "8:                 \n\t"  // a magnitude signed_saturated saturates in both signs
+      "ldi  r22, 0xFF     \n\t"
+      "ldi  r23, 0xFF     \n\t"
+      "movw r24, r22      \n\t"
       "9:                 \n\t"
-      : [r] "=&r"(r), [x] "=&r"(x), [p1] "=&r"(p1), [z] "=&r"(zero)
-      : [a] "r"(ua), [b] "r"(ub), [s] "r"(sign)
-      : "r0");
-  return as_signed(r);
+      : "+r"(ra), "+r"(rb)
+      : [mul] "i"(&mul_raw)
+      : "r0", "r26", "r27", "r30", "r31", "memory");
+  return signed_saturated(ra, (mul_general_sign() & 0x80u) != 0);
 }
 
 // The Q16.16 multiply of the model's magnitudes (both below 256, i.e. 2^24 raw: temperatures,
@@ -1100,22 +1114,33 @@ constexpr bool is_finite(Fixed) { return true; }
 // other 32-bit shifts into a bit-per-iteration loop of ~5 cycles per bit.
 namespace fixed_detail {
 
-// Haversine kernel: h = (1 - cos(pi x)) / 2 for x in [0, 0.5], given w = (2x)^2 in Q0.30
-// (w30 <= 2^30). h = w * B(w) with B a degree-2 minimax fit on w in [0, 1]
-// (|error of h| <= 3.9e-6). The small inner term is evaluated on 16 bits, the last two products
-// use all of w30, so rounding adds ~3e-6 and h is non-decreasing in w. Returns h in Q0.30.
-inline uint32_t haversine_q30(uint32_t w30) {
+// Haversine kernel: h = (1 - cos(pi x)) / 2 for x in [0, 0.5], h = w * B(w) with w = (2x)^2 and
+// B a degree-2 minimax fit on w in [0, 1] (|error of h| <= 3.9e-6). This is B(w) in Q0.32 for w
+// given in Q0.30 (w30 <= 2^30); the small inner term is evaluated on 16 bits, the outer product
+// uses all of w30.
+// The constant and the inner term: B(w) = kHaversineB0 - w q18 (q18 in Q0.18), w given in Q2.14.
+constexpr uint32_t kHaversineB0 = UINT32_C(2649010682);  // b0 in Q0.32
+inline uint16_t haversine_q18(uint16_t w14) {
   // B(w) = b0 - w (b1 - w b2), b0 = 0.61677086209, b1 = 0.12634892434, b2 = 0.00958198370.
-  constexpr uint32_t kB0 = UINT32_C(2649010682);  // b0 in Q0.32
-  constexpr uint16_t kB1 = 33122;                 // b1 in Q0.18
-  constexpr uint16_t kB2 = 10047;                 // b2 in Q0.20
-  const uint16_t w14 = hi16(w30);                 // Q2.14, enough for the small term
+  constexpr uint16_t kB1 = 33122;  // b1 in Q0.18
+  constexpr uint16_t kB2 = 10047;  // b2 in Q0.20
   // Q14 * Q20 >> 16 = Q18, rounded (truncating here would bias h by up to 3.8e-6).
-  const uint16_t q18 = static_cast<uint16_t>(kB1 - hi16(mul16(w14, kB2) + 0x8000u));
-  const uint32_t b32 = kB0 - mul32x16(w30, q18);  // Q30 * Q18 >> 16 = Q32
-  const uint32_t h = mulhi32(w30, b32);           // Q30 * Q32 >> 32 = Q30
+  return static_cast<uint16_t>(kB1 - hi16(mul16(w14, kB2) + 0x8000u));
+}
+inline uint32_t haversine_b32(uint32_t w30) {
+  return kHaversineB0 - mul32x16(w30, haversine_q18(hi16(w30)));  // Q30 * Q18 >> 16 = Q32
+}
+
+// h <= 0.5 (Q0.30) keeps the mirrored upper half monotone.
+inline uint32_t half_at_most_q30(uint32_t h) {
   constexpr uint32_t kHalf = UINT32_C(1) << 29;
-  return h < kHalf ? h : kHalf;  // h <= 0.5 keeps the mirrored upper half monotone
+  return h < kHalf ? h : kHalf;
+}
+
+// h in Q0.30 from w in Q0.30: the last product uses all of w30, so rounding adds ~3e-6 and h is
+// non-decreasing in w.
+inline uint32_t haversine_q30(uint32_t w30) {
+  return half_at_most_q30(mulhi32(w30, haversine_b32(w30)));  // Q30 * Q32 >> 32 = Q30
 }
 
 // cos(2 pi p) for a phase p in turns, Q0.32 (the full circle wraps naturally in uint32).
@@ -1316,35 +1341,49 @@ inline Fixed sin(Fixed x) {
   return Fixed::from_raw(x.raw() < 0 ? -s : s);
 }
 
-// cos_ramp(x) = 0.5 [1 - cos(pi x)] for x clamped to [0, 1] (eqs 2, 3 and 11). Hot path: one
-// haversine kernel, no range reduction. Uses the symmetry f(1 - x) = 1 - f(x) so the kernel only
-// sees x <= 0.5. Non-decreasing in x (checked exhaustively by the tests).
-inline Fixed cos_ramp(Fixed x) {
-  using namespace fixed_detail;
+namespace fixed_detail {
+// The kernels of cos_ramp and cos_ramp_inv on the lower half: x in Q0.16 (<= 0.5) -> the ramp in
+// Q0.32 (<= 2^31).
+
+// h(x) = 0.5 [1 - cos(pi x)]. (2x)^2 in Q0.30 equals x^2 in Q0.32: the product of the Q0.16 raw
+// values, exactly. h = w B = 4 x^2 B in Q0.30 is x^2 B in Q0.32: B = b0 - w q18 (haversine_b32),
+// then B x, then B x^2, three 32x16 products in a loop, one copy of the product's code (their
+// floors lose < 2^-29 of h; a full 32x32 grid would cost ~150 B more).
+inline uint32_t haversine_ramp_q32(uint16_t xm) {
+  const uint32_t w30 = mul16(xm, xm);
+  uint32_t h30 = w30;
+  uint16_t factor = haversine_q18(hi16(w30));
+  for (uint8_t i = 0; i < 3; ++i) {
+    h30 = mul32x16(h30, factor);
+    if (i == 0) h30 = kHaversineB0 - h30;
+    factor = xm;
+  }
+  return half_at_most_q30(h30) << 2;
+}
+// g(y) = acos(1 - 2y) / pi.
+inline uint32_t ramp_inv_half_q32(uint16_t ym) { return ramp_inv_q32(static_cast<uint32_t>(ym) << 16); }
+
+// The rest of both ramps, one copy for the two: x clamped to [0, 1], the mirror symmetry
+// f(1 - x) = 1 - f(x) so the kernel only sees x <= 0.5, the kernel's Q0.32 rounded to Q16.16.
+// Non-decreasing in x when the kernel is (checked exhaustively by the tests).
+__attribute__((noinline)) inline Fixed mirrored_ramp(Fixed x, bool inverse) {
   const int32_t r = x.raw();
   if (r <= 0) return Fixed::from_raw(0);
   if (r >= kRawOne) return Fixed::from_raw(kRawOne);
   const bool upper = r > kRawOne / 2;
   const uint16_t xm = static_cast<uint16_t>(upper ? kRawOne - r : r);  // Q0.16, <= 0.5
-  // (2x)^2 in Q0.30 equals x^2 in Q0.32: the product of the Q0.16 raw values, exactly.
-  const uint32_t h32 = haversine_q30(mul16(xm, xm)) << 2;  // Q0.32, <= 2^31
-  const int32_t h = static_cast<int32_t>(hi16(h32 + 0x8000u));
+  const int32_t h = static_cast<int32_t>(hi16((inverse ? ramp_inv_half_q32(xm) : haversine_ramp_q32(xm)) + 0x8000u));
   return Fixed::from_raw(upper ? kRawOne - h : h);
 }
+}  // namespace fixed_detail
+
+// cos_ramp(x) = 0.5 [1 - cos(pi x)] for x clamped to [0, 1] (eqs 2, 3 and 11). Hot path: one
+// haversine kernel, no range reduction.
+inline Fixed cos_ramp(Fixed x) { return fixed_detail::mirrored_ramp(x, false); }
 
 // cos_ramp_inv(y) = acos(1 - 2y) / pi for y clamped to [0, 1] (eqs 15 and 16): the inverse of
-// cos_ramp. Same mirror symmetry; the kernel needs one 16-bit integer square root.
-inline Fixed cos_ramp_inv(Fixed y) {
-  using namespace fixed_detail;
-  const int32_t r = y.raw();
-  if (r <= 0) return Fixed::from_raw(0);
-  if (r >= kRawOne) return Fixed::from_raw(kRawOne);
-  const bool upper = r > kRawOne / 2;
-  const uint32_t ym = static_cast<uint32_t>(upper ? kRawOne - r : r);  // Q0.16, <= 0.5
-  const uint32_t g32 = ramp_inv_q32(ym << 16);
-  const int32_t g = static_cast<int32_t>(hi16(g32 + 0x8000u));
-  return Fixed::from_raw(upper ? kRawOne - g : g);
-}
+// cos_ramp. The kernel needs one 16-bit integer square root.
+inline Fixed cos_ramp_inv(Fixed y) { return fixed_detail::mirrored_ramp(y, true); }
 
 // acos(x) for x clamped to [-1, 1], in [0, pi]: acos(x) = pi * cos_ramp_inv((1 - x) / 2), with
 // (1 - |x|) / 2 formed in Q0.32 so the halving loses no bit.
@@ -1387,8 +1426,9 @@ inline Fixed sqrt(Fixed x) {
       --pairs_left;
     }
   }
-  uint32_t rem;
-  uint32_t root = isqrt32(n, rem);
+  uint32_t rem_out;
+  uint32_t root = isqrt32(n, rem_out);
+  uint32_t rem = rem_out;  // a copy the loop keeps in registers (isqrt32 writes rem_out in memory)
   // Remaining digits: the radicand continues with zero bits. rem <= 2 root < 2^25, so 4 rem fits.
   for (; pairs_left != 0; --pairs_left) {
     rem <<= 2;
