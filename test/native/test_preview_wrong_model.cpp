@@ -127,4 +127,31 @@ TEST(PreviewWrongModel, TheFlowsFitMissesTheRiseOfItsThirdLoop) {
   }
 }
 
+// Issue 13's "a more exact model never tracks worse" needs tracking that moves continuously
+// with the model below what a fit resolves. The flow's fit and models a sixth to two thirds of
+// its own 95 % intervals away (h +-0.3 %, T_AF +-0.26 K): on each the wire rides a rise past the
+// 0.2 mm hold and is re-approached down its loop (eqs 5-6, 11); the re-heat before the 0.4 mm
+// step starts when the wire is back at the hold, so the step starts from the heating curve on
+// every one of them. Within 2.5 ADC steps (2 um each) of the fit's own run in the wrong-way move
+// before a step, within the issue's 10 um in the whole run's RMS. (Left to the plan's tie
+// between switch times, the re-heat started 1.6 s before the step on three of them, the wire
+// rode the 0.4 mm hold's rise and was re-approached again: 16-18 um and 14-15 um apart.)
+TEST(PreviewWrongModel, TheFirstHoldsReapproachDoesNotFlipOnAHundredthOfTheFit) {
+  const sma::Params fit = sma_host::e2e_flow_fit();
+  const sma_host::Metrics at = sma_host::step_metrics(
+      sma_host::run_closed_loop<float>(e2e_steps(fit, sma_host::e2e_flow_fit_effects())), 25.0);
+  const struct {
+    double dh, dT_AF;
+  } near[] = {{0.0005, 0.0}, {0.001, 0.0}, {-0.002, 0.0}, {0.0, 0.05}};
+  for (const auto& n : near) {
+    sma::Params p = fit;
+    p.h *= 1.0 + n.dh;
+    p.T_AF += n.dT_AF;
+    sma_host::RunSetup s = e2e_steps(p, sma_host::e2e_flow_fit_effects());
+    const sma_host::Metrics m = sma_host::step_metrics(sma_host::run_closed_loop<float>(s), s.reference.step_s);
+    EXPECT_NEAR(m.wrong_way_before_mm, at.wrong_way_before_mm, 0.005) << n.dh << " " << n.dT_AF;
+    EXPECT_NEAR(m.rms_mm, at.rms_mm, 0.010) << n.dh << " " << n.dT_AF;
+  }
+}
+
 }  // namespace

@@ -26,7 +26,9 @@
 //    whole curve, so the next move needs no new offset; (c) a hold the wire overshot on the
 //    heating branch (it rode a minor-loop rise, eqs 5-6, which no heating can take back) is
 //    re-approached: the model wire is re-anchored on the wire's loop, the branch turns to
-//    cooling, and the heating curve is shifted by what the overshoot says of it.
+//    cooling, and the heating curve is shifted by what the overshoot says of it; back at the
+//    hold, the wire is re-heated below its loop's peak (which moves nothing) if the next move
+//    is up, so that the move starts from the heating curve.
 //    (d) A hold reached by a move down that started with a large offset is approached from
 //    above: an offset measured at one point of a cooling curve that is not the model's is wrong
 //    at another, and the cooling branch cannot raise a wire it took past the hold.
@@ -147,7 +149,8 @@ struct PreviewConfig {
   // The heating curve's shift (b): time constant of moving d into it, s (0 = off).
   double curve_shift_tau_s = 1.0;
   // The re-approach (c): a hold the wire stays above by more than this (mm) for 3.5 s at rest
-  // on the heating branch is approached again from its cooling loop (0 = off).
+  // on the heating branch is approached again from its cooling loop, and re-heated once the
+  // wire is back at it if the next move is up (0 = off).
   double reapproach_mm = 0.02;
   // (d) A hold reached by a move down on the cooling branch (which never raises the wire), with
   // an offset above this (mm) when the move started, is approached from above: the model wire
@@ -196,6 +199,9 @@ class PreviewCore {
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
   static constexpr uint8_t kObserveTicks = 10;  // ticks between samples of the heat-loss observer
   static constexpr uint8_t kFar = 4;  // knots of the look beyond the horizon (lookahead_s)
+  // The re-approach's re-heat (reheat_): none; the wire cooling down its loop to the hold; the
+  // wire back at the hold, the re-heat due if the reference's next move is up.
+  static constexpr uint8_t kReheatNone = 0, kReheatCooling = 1, kReheatDue = 2;
 
   // curves and thermal: built from p and fx. model_valid: the caller's verdict on p and fx
   // (Params::check, Effects::check), e.g. a board's Controller built from the same set (on AVR a
@@ -275,6 +281,7 @@ class PreviewCore {
     shift_due_ = false;
     above_ticks_ = 0;
     reapproach_due_ = false;
+    reheat_ = kReheatNone;
     switch_due_ = 0;
     heating_ = true;
     moved_with_ = true;
@@ -398,6 +405,11 @@ class PreviewCore {
       if (lead_ready_) prepare_voltages();
       return false;
     }
+    if (reheat_ == kReheatDue && reheat_now()) {
+      switch_branch();
+      if (lead_ready_) prepare_voltages();
+      return false;
+    }
     // The heating reached the peak of a hold approached on the rise: cool (here, not in the
     // tick: the switch builds the loop).
     if (heating_ && capped(ref_now_) && at_cap(T_est_)) {
@@ -460,6 +472,10 @@ class PreviewCore {
     const bool resting = !(abs(moving) > T(0.002));
     const bool over = reapproach_ > T(0) && heating_ && held_ticks_ > 0 && x_fast_ - ref > reapproach_ && resting;
     above_ticks_ = over ? static_cast<uint16_t>(above_ticks_ + 1) : uint16_t(0);
+    // A re-approached hold: the wire back at it (within the re-approach's threshold, at rest) on
+    // the cooling branch; a heating or a new reference ends it.
+    if (reheat_ != kReheatNone && (heating_ || held_ticks_ == 0)) reheat_ = kReheatNone;
+    if (reheat_ == kReheatCooling && resting && !(x_fast_ - ref > reapproach_)) reheat_ = kReheatDue;
     if (above_ticks_ > reapproach_after_) {
       above_ticks_ = 0;
       reapproach_due_ = true;
@@ -524,8 +540,30 @@ class PreviewCore {
     moved_with_ = false;
     ref_extreme_ = ref_now_;
     switch_due_ = 0;
+    reheat_ = kReheatCooling;
     est_.prepare_cooling();
     restart_plan();
+  }
+
+  // The re-approach's re-heat. Back at the hold on its loop's cooling curve (eq 11), the wire
+  // is below the peak of the loop it cooled down; a heating up to that peak moves nothing (the
+  // heating branch follows eq 15 only from where it meets the heating curve: return-point
+  // memory), so heating now costs no position and puts the wire on its heating curve before
+  // the next move up starts. Left to the plan, that heating is a tie between candidates (each
+  // leaves the position where it is), which the plan breaks for the latest switch: the move up
+  // then starts inside a heating from the cooled wire, and which candidate is the latest flips
+  // on a hundredth of a kelvin of the model (docs/control.md section 26). Here it starts when
+  // the wire is back at the hold, a time that moves with the model continuously. The next move
+  // is read from the last plan's reference samples (r_, within ~a plan's age); none within the
+  // horizon: wait; down: the cooling branch stays (it is the move's own branch).
+  bool reheat_now() {
+    if (plans_ == 0) return false;  // r_ not sampled yet
+    for (uint8_t e = 0; e < n_grid_; ++e)
+      if (apart(r_[e], ref_now_)) {
+        reheat_ = kReheatNone;
+        return r_[e] > ref_now_;
+      }
+    return false;
   }
 
   // (d) A position offset is right where it was measured: between two points of cooling curves
@@ -907,6 +945,7 @@ class PreviewCore {
   uint16_t reapproach_after_;          // ticks above the hold before it is re-approached: 3.5 s
   uint16_t above_ticks_;
   bool reapproach_due_;
+  uint8_t reheat_;  // the re-approach's re-heat: kReheatNone, kReheatCooling, kReheatDue
   T x_fast_ = T(0), x_slow_ = T(0);    // the measurement low-passed over 0.2 s and 0.6 s
   bool x_init_;
   T held_ref_ = T(-1);
