@@ -106,7 +106,7 @@ TEST(PreviewWrongModel, TheEndToEndWireIsHeldWithTheModelTheFlowUploads) {
 // near it are met on the 0.8 mm step (the model wire peaks at 74.6 C) and at the sine's top
 // (71.8 C): the plan stops the heating where the fit's loop has no rise, the wire rides its own
 // (eqs 5-6) 0.036 mm past the 0.8 mm hold (issue 13: <= 0.03 mm before the down-step) and ~0.07 mm
-// past the sine's top (max over a period 0.117 mm). With the wire's j at that knot and nothing
+// past the sine's top (max over a period 0.114 mm). With the wire's j at that knot and nothing
 // else changed, the same controller meets the limits (issue 13: sine max <= 0.12 mm) with the
 // sine's max lower by more than that limit's margin over the rise: the cause is the model the flow
 // uploads, which no learning within the run can know before its first peak there (docs/control.md

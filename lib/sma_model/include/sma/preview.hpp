@@ -684,9 +684,13 @@ class PreviewCore {
     const T eps_t = fraction(r - d_);  // eq 14, with the offset
     if (heat) return max(Tw, capped(r) ? cap_T_ + T(0.1) : curves_.heat_temperature(eps_t));
     const CoolingLoop<T>& L = h.prepare_cooling();
-    // Still above the end of the rise and asked to stay or go up: ride the rise (eqs 5-6);
-    // not before a move down (take the rise now, and hold on the cooling curve).
-    if (Tw > L.T_ii && !(eps_t < h.eps()) && !capped(r)) return min(Tw, curves_.rise_temperature(L, eps_t));
+    // Still above the end of the rise and asked to stay or go up, to where the rise reaches:
+    // ride the rise (eqs 5-6). At or past its top (eq 5) the wire can go no higher on this
+    // loop: it is cooled on through the flat stage (eqs 7-10, the fraction held at the top) to
+    // T_MSi (eq 16), so that it follows the reference down at once instead of waiting there for
+    // the flat stage. Not before a move down (take the rise now, and hold on the cooling curve).
+    if (Tw > L.T_ii && !(eps_t < h.eps()) && eps_t < L.top && !capped(r))
+      return min(Tw, curves_.rise_temperature(L, eps_t));
     return min(Tw, curves_.cool_temperature(L, eps_t));
   }
 
