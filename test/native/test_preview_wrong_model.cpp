@@ -9,6 +9,7 @@
 // offset estimate takes part of a transient gap for a steady one and drives the model wire past
 // the setpoint on a branch that cannot come back).
 #include <gtest/gtest.h>
+#include <cmath>
 #include <vector>
 #include "sma_host/e2e_wire.hpp"
 #include "sma_host/metrics.hpp"
@@ -104,27 +105,56 @@ TEST(PreviewWrongModel, TheEndToEndWireIsHeldWithTheModelTheFlowUploads) {
 // (j 0.0001), where the wire's loop there rises j 0.10 (Table II, which e2e_wire keeps). Peaks
 // near it are met on the 0.8 mm step (the model wire peaks at 74.6 C) and at the sine's top
 // (71.8 C): the plan stops the heating where the fit's loop has no rise, the wire rides its own
-// (eqs 5-6) 0.036 mm past the 0.8 mm hold (issue 13: <= 0.03 mm before the down-step) and 0.08 mm
-// past the sine's top (max over a period 0.129 mm, issue 13: <= 0.12). With the wire's j at that
-// knot and nothing else changed, the same controller meets both limits: the cause is the model the
-// flow uploads, which no learning within the run can know before its first peak there (docs/
-// control.md section 21).
+// (eqs 5-6) 0.036 mm past the 0.8 mm hold (issue 13: <= 0.03 mm before the down-step) and ~0.07 mm
+// past the sine's top (max over a period 0.114 mm). With the wire's j at that knot and nothing
+// else changed, the same controller meets the limits (issue 13: sine max <= 0.12 mm) with the
+// sine's max lower by more than that limit's margin over the rise: the cause is the model the flow
+// uploads, which no learning within the run can know before its first peak there (docs/control.md
+// section 21).
 TEST(PreviewWrongModel, TheFlowsFitMissesTheRiseOfItsThirdLoop) {
   sma::Params fit = sma_host::e2e_flow_fit();
+  double sine_max[2];
   for (bool wire_rise : {true, false}) {
     fit.loops[2].j = wire_rise ? sma_host::e2e_wire().loops[2].j : sma_host::e2e_flow_fit().loops[2].j;
     sma_host::RunSetup s = e2e_steps(fit, sma_host::e2e_flow_fit_effects());
     const double before = sma_host::step_metrics(sma_host::run_closed_loop<float>(s), s.reference.step_s).wrong_way_before_mm;
     s.reference = sma::Reference::sine();
-    const double sine_max = sma_host::sine_metrics(sma_host::run_closed_loop<float>(s), s.reference.sine_period_s).max_mm;
-    if (wire_rise) {
-      EXPECT_LE(before, 0.03);
-      EXPECT_LE(sine_max, 0.12);
-    } else {
-      EXPECT_GT(before, 0.03);
-      EXPECT_GT(sine_max, 0.12);
-    }
+    sine_max[wire_rise] = sma_host::sine_metrics(sma_host::run_closed_loop<float>(s), s.reference.sine_period_s).max_mm;
+    if (wire_rise) EXPECT_LE(before, 0.03);
+    else EXPECT_GT(before, 0.03);
   }
+  EXPECT_LE(sine_max[1], 0.12);
+  // The rise the fit misses (the wire's j 0.10 at the knot) shows as a larger error at the top.
+  EXPECT_GT(sine_max[0] - sine_max[1], 0.03);
+}
+
+// A more exact model never tracks worse (issue 13) needs tracking continuous in the model: keys
+// moved far below what a fit resolves (T_AF +-0.02 .. 0.05 K, h -0.2 .. +0.1 %, against the fit's
+// 95 % intervals of +-0.26 K and +-0.3 %) move the model's heating curve (eq 4) by < 0.1 K, a few
+// um of position at its steepest. The plan's switch off before the sine's top must not jump with
+// them: when "now" had to win outright, the heating ran on in some of them until it did, 2 s and
+// ~1 K of peak later, and the wire rode its rise 0.04 mm past the top (max 0.056 -> 0.097 mm;
+// docs/control.md sections 23, 25). The flow's fit with the wire's rise at its third loop (the
+// counterfactual of the test above, whose j puts the top's switch where it matters).
+TEST(PreviewWrongModel, TheSinesTopIsContinuousInTheModel) {
+  sma::Params base = sma_host::e2e_flow_fit();
+  base.loops[2].j = sma_host::e2e_wire().loops[2].j;
+  base.loops[2].T_ii = 65.2;  // where the start of the flow's fit puts it (docs/control.md section 23)
+  const double dT_AF[] = {0.0, 0.02, -0.02, 0.05, 0.0, 0.0, 0.0};
+  const double dh[] = {0.0, 0.0, 0.0, 0.0, 5e-4, 1e-3, -2e-3};
+  double lo = 1.0, hi = 0.0;
+  for (int k = 0; k < 7; ++k) {
+    sma::Params m = base;
+    m.T_AF += dT_AF[k];
+    m.h *= 1.0 + dh[k];
+    sma_host::RunSetup s = e2e_steps(m, sma_host::e2e_flow_fit_effects());
+    s.reference = sma::Reference::sine();
+    const double mx = sma_host::sine_metrics(sma_host::run_closed_loop<float>(s), s.reference.sine_period_s).max_mm;
+    lo = fmin(lo, mx);
+    hi = fmax(hi, mx);
+  }
+  EXPECT_LE(hi, 0.12);                // issue 13's limit, at every one of them
+  EXPECT_LE(hi - lo, 0.02) << lo << " .. " << hi;  // 10 ADC steps: ~5x what the model change itself moves
 }
 
 // Issue 13's "a more exact model never tracks worse" needs tracking that moves continuously

@@ -44,9 +44,10 @@
 //    (grid_s, exact thermal limits: at most V_max, at least passive cooling) over the horizon,
 //    for a few candidate times of the next branch switch (now, 1, 2, 4, 7 s, or when the
 //    reference turns); the cost is the squared position error, errors while the reference
-//    falls weighted by cool_weight (the one heating/cooling trade-off setting). When
-//    "switch now" wins, the branch switches: heating stops before a peak at the temperature
-//    whose rise carries the wire to the top; heating restarts before a valley.
+//    falls weighted by cool_weight (the one heating/cooling trade-off setting). The heating
+//    stops before a peak once the best switch time (between the candidates) has come, at the
+//    temperature whose rise carries the wire to the top; it restarts before a valley when
+//    "switch now" wins.
 //  - After a switch the branch follows the reference: it turns back only once the reference
 //    has moved with it and then turns against it.
 //  - A hold whose next move is down (seen in the plan's reference or at a few knots beyond the
@@ -721,9 +722,13 @@ class PreviewCore {
     const T eps_t = fraction(r - d_);  // eq 14, with the offset
     if (heat) return max(Tw, capped(r) ? cap_T_ + T(0.1) : curves_.heat_temperature(eps_t));
     const CoolingLoop<T>& L = h.prepare_cooling();
-    // Still above the end of the rise and asked to stay or go up: ride the rise (eqs 5-6);
-    // not before a move down (take the rise now, and hold on the cooling curve).
-    if (Tw > L.T_ii && !(eps_t < h.eps()) && !capped(r)) return min(Tw, curves_.rise_temperature(L, eps_t));
+    // Still above the end of the rise and asked to stay or go up, to where the rise reaches:
+    // ride the rise (eqs 5-6). At or past its top (eq 5) the wire can go no higher on this
+    // loop: it is cooled on through the flat stage (eqs 7-10, the fraction held at the top) to
+    // T_MSi (eq 16), so that it follows the reference down at once instead of waiting there for
+    // the flat stage. Not before a move down (take the rise now, and hold on the cooling curve).
+    if (Tw > L.T_ii && !(eps_t < h.eps()) && eps_t < L.top && !capped(r))
+      return min(Tw, curves_.rise_temperature(L, eps_t));
     return min(Tw, curves_.cool_temperature(L, eps_t));
   }
 
@@ -747,7 +752,7 @@ class PreviewCore {
     j_ = 0;
     elapsed_ticks_ = 0;
     best_cost_ = T(-1);
-    best_ = kNever;
+    best_ = 0;
     start_sim();
   }
   SMA_PREVIEW_NOINLINE void start_sim() {
@@ -767,22 +772,26 @@ class PreviewCore {
     // following the reference by the margin: a switch that buys little is not made
     // (e.g. heating a wire on a flat stage, which moves nothing yet).
     if (switch_at_[cand_] == kNever) natural_cost_ = cost_;
+    cost_at_[cand_] = cost_;
     if (best_cost_ < T(0) || cost_ < best_cost_) {
       best_cost_ = cost_;
-      best_ = switch_at_[cand_];
+      best_ = cand_;
     }
     if (++cand_ >= kCandidates) {
       ++plans_;
       // commit_switch: a timed switch that wins is kept as a commitment (due when its time
-      // comes, unless a later plan prefers otherwise); without it only "now" switches, and
-      // a switch that every new plan puts a few seconds later is never made.
+      // comes, unless a later plan prefers otherwise). Without it the heating stops once its
+      // best time (switch_ticks, between the candidates) has come while the plan ran; a later
+      // one is left to the next plan. The heating restarts only when "now" wins outright: a
+      // re-heat of a wire on its rise opens a new loop with a rise of its own under model.md's
+      // literal reading (plant B), which the model's return-point memory does not predict.
       switch_due_ = 0;
-      if (SMA_PREVIEW_HOST_OPTIONS && commit_switch_ && best_ != kNever &&
-          best_cost_ < natural_cost_ - switch_margin_) {
-        const long due = static_cast<long>(best_ * grid_s_ / dt_ + 0.5) - elapsed_ticks_;
+      const bool wins = switch_at_[best_] != kNever && best_cost_ < natural_cost_ - switch_margin_;
+      if (SMA_PREVIEW_HOST_OPTIONS && commit_switch_ && wins) {
+        const long due = static_cast<long>(switch_at_[best_] * grid_s_ / dt_ + 0.5) - elapsed_ticks_;
         if (due <= 0) switch_branch();
         else switch_due_ = static_cast<uint16_t>(due);
-      } else if (best_ == 0 && best_cost_ < natural_cost_ - switch_margin_) {
+      } else if (wins && (heating_ ? switch_ticks() <= elapsed_ticks_ : switch_at_[best_] == 0)) {
         switch_branch();
       }
       restart_plan();
@@ -791,6 +800,32 @@ class PreviewCore {
     j_ = 0;
     start_sim();
     return false;
+  }
+
+  // The best switch time between the candidates, in ticks from the plan's start: the vertex of
+  // the parabola through the cheapest candidate's cost and its two neighbours' in time,
+  // clamped between the neighbours. Near its minimum the cost is smooth in the time the
+  // heating stops: earlier stops it at a lower peak T_i, whose minor-loop rise j_i (eqs 5-6)
+  // ends short of the top; later at a higher one, whose rise ends past it. So the switch
+  // moves with the model instead of waiting for "now" to win outright, and a candidate that
+  // wins while its time passes ("0.5 s" in plan after plan: a plan is ~0.56 s old when it
+  // decides) switches once its time has come. (In double: cost differences times squared
+  // grid steps of up to 7 s overflow Q16.16.)
+  long switch_ticks() const {
+    const uint8_t b = best_;
+    double t = switch_at_[b];
+    // Neighbours in time: the next candidate is the earlier one; the first is "never".
+    if (b >= 2 && b + 1 < kCandidates) {
+      const double t0 = switch_at_[b + 1], t2 = switch_at_[b - 1];
+      const double c0 = to_double(cost_at_[b + 1]), c1 = to_double(cost_at_[b]), c2 = to_double(cost_at_[b - 1]);
+      const double p = (t - t0) * (c1 - c2), q = (t - t2) * (c1 - c0);
+      const double den = p - q;
+      if (den < 0.0) {  // convex (b is the cheapest of the three); flat: stay at b
+        const double v = t - 0.5 * ((t - t0) * p - (t - t2) * q) / den;
+        t = v < t0 ? t0 : v > t2 ? t2 : v;
+      }
+    }
+    return static_cast<long>(t * grid_s_ / dt_ + 0.5);
   }
 
   // A position (mm) clamped to the stroke; its fraction (eq 14, clamped to 0..1). (Out of line:
@@ -959,6 +994,7 @@ class PreviewCore {
   T cap_ref_, cap_T_;
   T T_prev_;  // the model wire before its last step
   uint8_t switch_at_[kCandidates];
+  T cost_at_[kCandidates];  // the plan's cost of each candidate (switch_ticks)
   // Model wire.
   T T_est_, eps_est_, deps_, d_, v_;
   bool heating_, moved_with_, have_ref_;
