@@ -2,11 +2,13 @@
 // (firmware/CMakeLists.txt: built with -fira-algorithm=priority). Code generation only: the
 // numbers a function computes are the same with it or without.
 //
-// SMA_OWN_OPTIONS: the register allocator's default (Chaitin-Briggs) colouring on one function.
-// avr-gcc 5.4 then gives the function an option set of its own; on the functions that carry it
-// that is what shrinks them, not the allocator (-fno-tree-pre or -fno-tree-dominator-opts in its
-// place give the same bytes; docs/board.md "Session 13, qattr" has the scan). Elsewhere it does
-// not pay: the float image (+10 B on Params::check()), the host.
+// SMA_OWN_OPTIONS: the register allocator's default (Chaitin-Briggs) colouring on one function,
+// which avr-gcc 5.4 then compiles with an option set of its own. On Store::crc_ok, set_value and
+// Params::check() the allocator is what shrinks them; on Pid::step and poll_serial the own option
+// set is (-fno-tree-pre or -fno-tree-dominator-opts in its place give the same bytes). Not on
+// functions with callees inlined into them: GCC 5 does not inline across different option sets
+// (docs/board.md "Session 13, qattr" has the scan). Empty on the float image (+10 B on
+// Params::check()) and everywhere else.
 #ifndef SMA_CODEGEN_HPP
 #define SMA_CODEGEN_HPP
 
