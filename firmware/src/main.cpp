@@ -18,6 +18,7 @@
 #define SMA_PREVIEW_HOST_OPTIONS 0
 #include "rig_board.h"
 #include "sma/board.hpp"
+#include "sma/codegen.hpp"
 #ifdef SMA_FIRMWARE_FIXED
 #include "sma/fixed.hpp"
 typedef sma::Fixed Scalar;
@@ -253,7 +254,7 @@ static bool line_slot_open() {
 }
 
 // Reads bytes until one line is complete or a tick is due.
-static void __attribute__((noinline)) poll_serial() {
+static void __attribute__((noinline)) SMA_OWN_OPTIONS poll_serial() {
   if (!g_board.line_waiting()) {
     while (!g_tick_pending) {
       const int16_t b = uart::get();

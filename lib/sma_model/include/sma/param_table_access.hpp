@@ -8,6 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <string.h>
+#include "codegen.hpp"
 #include "effects.hpp"
 #include "param_table.hpp"
 #include "params.hpp"
@@ -28,14 +29,8 @@
 #else
 #define SMA_TABLE_NOINLINE
 #endif
-// Params::check() with the register allocator's default (Chaitin-Briggs) colouring in an image
-// built with -fira-algorithm=priority, which defines SMA_IRA_PRIORITY (the Q16.16 Uno image,
-// firmware/CMakeLists.txt): there it is 534 B with priority colouring, 474 B without.
-#if defined(__AVR__) && defined(SMA_IRA_PRIORITY)
-#define SMA_CHECK_ALLOCATOR __attribute__((optimize("-fira-algorithm=CB")))
-#else
-#define SMA_CHECK_ALLOCATOR
-#endif
+// Params::check() with the register allocator's default (Chaitin-Briggs) colouring in the Q16.16
+// Uno image (codegen.hpp): there it is 534 B with priority colouring, 474 B without.
 
 namespace sma {
 namespace param {
@@ -291,7 +286,7 @@ inline void put_violation(Out& o, Violation v) {
 // Every Table and List row in its range, above its `above`; then the loops (eqs 7-10): at most
 // kMaxLoopKnots, their peaks T_i increasing strictly inside (T_s, T_f), each T_ii <= its T_i,
 // T_ii and j in their ranges.
-SMA_TABLE_NOINLINE SMA_CHECK_ALLOCATOR inline param::Violation Params::check() const {
+SMA_TABLE_NOINLINE SMA_OWN_OPTIONS inline param::Violation Params::check() const {
   using namespace param;
   uint8_t key = 0;
   for (uint8_t r = 0; r < static_cast<uint8_t>(Row::count); ++r) {

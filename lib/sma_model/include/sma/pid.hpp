@@ -14,6 +14,7 @@
 #define SMA_PID_HPP
 
 #include "scalar.hpp"
+#include "codegen.hpp"
 
 namespace sma {
 
@@ -63,7 +64,7 @@ class Pid {
   }
 
   // One tick. error = setpoint - measurement; output in [lo, hi].
-  T step(T error, T measurement, T lo, T hi) {
+  SMA_OWN_OPTIONS T step(T error, T measurement, T lo, T hi) {
     if (!is_finite(error) || !is_finite(measurement)) return clamp(T(0), lo, hi);
     e_prev_ = error;
     // Derivative on measurement, low-pass filtered; P and D summed once for both uses below.

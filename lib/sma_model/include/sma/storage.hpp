@@ -30,6 +30,7 @@
 #include <stdint.h>
 #include <string.h>
 #include "effects.hpp"
+#include "codegen.hpp"
 #include "param_table_access.hpp"
 #include "params.hpp"
 #include "safety.hpp"  // SMA_F, flash_char
@@ -181,7 +182,7 @@ class Store {
     for (uint8_t k = 0; k < kNumKeys; ++k) set_value(k, get_value(p, fx, k));
   }
   // Writes one value of the staged set (false without a staged set or for an unknown key).
-  bool set_value(uint8_t k, double v) {
+  SMA_OWN_OPTIONS bool set_value(uint8_t k, double v) {
     if (staging_ < 0 || k >= kNumKeys) return false;
     const uint16_t a = addr(static_cast<uint8_t>(staging_), k);
     if (k == kKeyLoops) {
@@ -240,7 +241,7 @@ class Store {
     }
     return c;
   }
-  bool crc_ok(uint8_t s, uint16_t& crc) const {
+  SMA_OWN_OPTIONS bool crc_ok(uint8_t s, uint16_t& crc) const {
     if (e_.read(slot(s)) != kMagic || e_.read(static_cast<uint16_t>(slot(s) + 1)) != kVersion) return false;
     crc = compute_crc(s);
     const uint16_t stored = static_cast<uint16_t>(e_.read(static_cast<uint16_t>(slot(s) + 3)) |
