@@ -284,7 +284,8 @@ int main(int argc, char** argv) {
                   plant_name(static_cast<PlantKind>(k)), o.on[k].max_mm, o.on[k].rms_mm, o.on[k].max_rise_mm,
                   o.on[k].max_fall_mm);
   std::printf("\n");
-  std::printf("Optimal open-loop bound (0.5 s knots, objective whole-run RMS + 0.1 max, true position) "
+  std::printf("Optimal open-loop bound (0.5 s knots, alone or on a controller's 10 ms profile; objective "
+              "whole-run RMS + 0.1 max, true position) "
               "next to the controllers (double, tuned for the same objective):\n\n");
   std::printf("| test | condition | controller | max mm | RMS mm | max rise mm | max fall mm | wrong-way mm |\n"
               "|---|---|---|---|---|---|---|---|\n");
