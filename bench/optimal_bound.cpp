@@ -263,6 +263,8 @@ int main(int argc, char** argv) {
       }
       std::fprintf(stderr, "%s %s: cost %.4f from %s (%d evaluations, %.0f s)\n", outs.back().test.c_str(),
                    outs.back().condition.c_str(), best, outs.back().start.c_str(), evals, wall);
+      for (const Ctl& c : ctl)
+        std::fprintf(stderr, "  %s's own run, replayed: objective %.6f\n", c.name.c_str(), c.cost);
     }
 
   // The controllers' rows (double) from the tracking benchmark, if it ran.
