@@ -130,7 +130,7 @@ int main(int argc, char** argv) {
     std::printf("| %s |", models[k].first.c_str());
     for (int c = 0; c < 4; ++c) std::printf(" %.4f / %.4f, %.4f, %.4f |", point[c], sp[c].min, sp[c].median, sp[c].p90);
     std::printf("\n");
-    std::fprintf(out, "    {\"model\": \"%s\"", models[k].first.c_str());
+    std::fprintf(out, "    {\"model\": %s", sma_tools::json::quote(models[k].first).c_str());
     for (int c = 0; c < 4; ++c)
       std::fprintf(out, ", \"%s\": {\"at\": %.6f, \"min\": %.6f, \"median\": %.6f, \"p90\": %.6f}", names[c], point[c],
                    sp[c].min, sp[c].median, sp[c].p90);

@@ -343,9 +343,9 @@ int main(int argc, char** argv) {
   std::fprintf(f, "  ]\n}\n");
   std::fclose(f);
   std::printf("\nwrote %s\n", json_path);
-  double cpu = 0;
-  for (const Out& o : outs) cpu += o.wall;
-  std::printf("runtime: %.0f s wall for %zu problems\n", cpu, outs.size());
+  double wall = 0;
+  for (const Out& o : outs) wall += o.wall;
+  std::printf("runtime: %.0f s, the problems' wall times summed (%zu problems)\n", wall, outs.size());
   for (const std::string& d : defects) std::fprintf(stderr, "DEFECT: %s\n", d.c_str());
   return defects.empty() ? 0 : 3;
 }
