@@ -200,6 +200,9 @@ class PreviewCore {
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
   static constexpr uint8_t kObserveTicks = 10;  // ticks between samples of the heat-loss observer
   static constexpr uint8_t kFar = 4;  // knots of the look beyond the horizon (lookahead_s)
+  // The re-approach's re-heat (reheat_): none; the wire cooling down its loop to the hold; the
+  // wire back at the hold, the re-heat due if the reference's next move is up.
+  static constexpr uint8_t kReheatNone = 0, kReheatCooling = 1, kReheatDue = 2;
 
   // curves and thermal: built from p and fx. model_valid: the caller's verdict on p and fx
   // (Params::check, Effects::check), e.g. a board's Controller built from the same set (on AVR a
@@ -248,8 +251,7 @@ class PreviewCore {
         shift_after_(static_cast<uint16_t>(1.0 / cfg.dt + 0.5)),
         reapproach_(from_double<T>(cfg.reapproach_mm)),
         stale_offset_(from_double<T>(cfg.stale_offset_mm)),
-        reapproach_after_(static_cast<uint16_t>(3.5 / cfg.dt + 0.5)),
-        tie_(from_double<T>(1.0 / 32768)) {
+        reapproach_after_(static_cast<uint16_t>(3.5 / cfg.dt + 0.5)) {
     // Candidates: "when the reference turns" first, "now" last; "now" must win outright.
     const double sw[kCandidates] = {-1.0, 7.0, 4.0, 2.0, 1.0, 0.5, 0.0};
     for (uint8_t k = 0; k < kCandidates; ++k) {
@@ -280,6 +282,7 @@ class PreviewCore {
     shift_due_ = false;
     above_ticks_ = 0;
     reapproach_due_ = false;
+    reheat_ = kReheatNone;
     switch_due_ = 0;
     heating_ = true;
     moved_with_ = true;
@@ -403,6 +406,11 @@ class PreviewCore {
       if (lead_ready_) prepare_voltages();
       return false;
     }
+    if (reheat_ == kReheatDue && reheat_now()) {
+      switch_branch();
+      if (lead_ready_) prepare_voltages();
+      return false;
+    }
     // The heating reached the peak of a hold approached on the rise: cool (here, not in the
     // tick: the switch builds the loop).
     if (heating_ && capped(ref_now_) && at_cap(T_est_)) {
@@ -465,6 +473,10 @@ class PreviewCore {
     const bool resting = !(abs(moving) > T(0.002));
     const bool over = reapproach_ > T(0) && heating_ && held_ticks_ > 0 && x_fast_ - ref > reapproach_ && resting;
     above_ticks_ = over ? static_cast<uint16_t>(above_ticks_ + 1) : uint16_t(0);
+    // A re-approached hold: the wire back at it (within the re-approach's threshold, at rest) on
+    // the cooling branch; a heating or a new reference ends it.
+    if (reheat_ != kReheatNone && (heating_ || held_ticks_ == 0)) reheat_ = kReheatNone;
+    if (reheat_ == kReheatCooling && resting && !(x_fast_ - ref > reapproach_)) reheat_ = kReheatDue;
     if (above_ticks_ > reapproach_after_) {
       above_ticks_ = 0;
       reapproach_due_ = true;
@@ -529,8 +541,30 @@ class PreviewCore {
     moved_with_ = false;
     ref_extreme_ = ref_now_;
     switch_due_ = 0;
+    reheat_ = kReheatCooling;
     est_.prepare_cooling();
     restart_plan();
+  }
+
+  // The re-approach's re-heat. Back at the hold on its loop's cooling curve (eq 11), the wire
+  // is below the peak of the loop it cooled down; a heating up to that peak moves nothing (the
+  // heating branch follows eq 15 only from where it meets the heating curve: return-point
+  // memory), so heating now costs no position and puts the wire on its heating curve before
+  // the next move up starts. Left to the plan, that heating is a tie between candidates (each
+  // leaves the position where it is), which the plan breaks for the latest switch: the move up
+  // then starts inside a heating from the cooled wire, and which candidate is the latest flips
+  // on a hundredth of a kelvin of the model (docs/control.md section 26). Here it starts when
+  // the wire is back at the hold, a time that moves with the model continuously. The next move
+  // is read from the last plan's reference samples (r_, within ~a plan's age); none within the
+  // horizon: wait; down: the cooling branch stays (it is the move's own branch).
+  bool reheat_now() {
+    if (plans_ == 0) return false;  // r_ not sampled yet
+    for (uint8_t e = 0; e < n_grid_; ++e)
+      if (apart(r_[e], ref_now_)) {
+        reheat_ = kReheatNone;
+        return r_[e] > ref_now_;
+      }
+    return false;
   }
 
   // (d) A position offset is right where it was measured: between two points of cooling curves
@@ -737,15 +771,9 @@ class PreviewCore {
     // Ties keep the later switch; and switching at all (any timed candidate) must beat
     // following the reference by the margin: a switch that buys little is not made
     // (e.g. heating a wire on a flat stage, which moves nothing yet).
-    // A heating that would start below the model wire's heating curve (on a cooling curve, eqs
-    // 11, 15: return-point memory) moves nothing until it meets that curve, so candidates whose
-    // costs tie (within tie_) differ only in when a free heating starts: the earliest is taken.
-    if (switch_at_[cand_] == kNever) {
-      natural_cost_ = cost_;
-      free_heat_ = !heating_ && curves_.eps_heat(T_est_) < eps_est_;
-    }
+    if (switch_at_[cand_] == kNever) natural_cost_ = cost_;
     cost_at_[cand_] = cost_;
-    if (best_cost_ < T(0) || cost_ < best_cost_ || (free_heat_ && !(cost_ > best_cost_ + tie_))) {
+    if (best_cost_ < T(0) || cost_ < best_cost_) {
       best_cost_ = cost_;
       best_ = cand_;
     }
@@ -952,6 +980,7 @@ class PreviewCore {
   uint16_t reapproach_after_;          // ticks above the hold before it is re-approached: 3.5 s
   uint16_t above_ticks_;
   bool reapproach_due_;
+  uint8_t reheat_;  // the re-approach's re-heat: kReheatNone, kReheatCooling, kReheatDue
   T x_fast_ = T(0), x_slow_ = T(0);    // the measurement low-passed over 0.2 s and 0.6 s
   bool x_init_;
   T held_ref_ = T(-1);
@@ -965,8 +994,6 @@ class PreviewCore {
   T cap_ref_, cap_T_;
   T T_prev_;  // the model wire before its last step
   uint8_t switch_at_[kCandidates];
-  bool free_heat_;  // the plan's heating would start below the heating curve (ties: the earliest)
-  T tie_;
   T cost_at_[kCandidates];  // the plan's cost of each candidate (switch_ticks)
   // Model wire.
   T T_est_, eps_est_, deps_, d_, v_;
