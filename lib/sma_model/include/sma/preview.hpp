@@ -65,9 +65,6 @@
 #if !defined(__AVR__)
 #include <new>  // placement new of PreviewSlot (the AVR board provides its own, sma/board.hpp)
 #endif
-#ifndef REHEAT_LEAD
-#define REHEAT_LEAD 2.5
-#endif
 #include "effects.hpp"
 #include "heat_gain.hpp"
 #include "hysteresis.hpp"
@@ -409,7 +406,7 @@ class PreviewCore {
       if (lead_ready_) prepare_voltages();
       return false;
     }
-    if (reheat_ == kReheatDue && reheat_now(future)) {
+    if (reheat_ == kReheatDue && reheat_now()) {
       switch_branch();
       if (lead_ready_) prepare_voltages();
       return false;
@@ -560,33 +557,12 @@ class PreviewCore {
   // the wire is back at the hold, a time that moves with the model continuously. The next move
   // is read from the last plan's reference samples (r_, within ~a plan's age); none within the
   // horizon: wait; down: the cooling branch stays (it is the move's own branch).
-  template <class Future>
-  bool reheat_now(const Future& future) {
+  bool reheat_now() {
     if (plans_ == 0) return false;  // r_ not sampled yet
     for (uint8_t e = 0; e < n_grid_; ++e)
       if (apart(r_[e], ref_now_)) {
-        if (!(r_[e] > ref_now_)) { reheat_ = kReheatNone; return false; }
-        // the move's time from now: between samples e - 1 and e, bisected on the reference
-        double lo = e * grid_s_ - elapsed_ticks_ * dt_, hi = lo + grid_s_;
-        if (lo < 0.0) lo = 0.0;
-        for (int k = 0; k < 5; ++k) {
-          const double mid = 0.5 * (lo + hi);
-          if (apart(ahead(future, from_double<T>(mid)), ref_now_)) hi = mid; else lo = mid;
-        }
-        // the heating's time at V_max to the heating curve (eq 1, grid steps, the last interpolated)
-        const T T_meet = curves_.heat_temperature(eps_est_);
-        T Tw = T_est_;
-        double t_heat = 0.0;
-        for (int k = 0; k < 16 && Tw < T_meet; ++k) {
-          const T Tn = grid_step_.passive(Tw) + grid_step_.heat(v_max_);
-          if (!(Tn > Tw)) { t_heat = 1e9; break; }
-          if (Tn >= T_meet) { t_heat += grid_s_ * to_double((T_meet - Tw) / (Tn - Tw)); Tw = Tn; break; }
-          t_heat += grid_s_;
-          Tw = Tn;
-        }
-        if (hi - t_heat > REHEAT_LEAD) return false;
         reheat_ = kReheatNone;
-        return true;
+        return r_[e] > ref_now_;
       }
     return false;
   }
@@ -815,7 +791,7 @@ class PreviewCore {
         const long due = static_cast<long>(switch_at_[best_] * grid_s_ / dt_ + 0.5) - elapsed_ticks_;
         if (due <= 0) switch_branch();
         else switch_due_ = static_cast<uint16_t>(due);
-      } else if (wins && (heating_ ? switch_ticks() <= elapsed_ticks_ : switch_at_[best_] == 0 && reheat_ != kReheatDue)) {
+      } else if (wins && (heating_ ? switch_ticks() <= elapsed_ticks_ : switch_at_[best_] == 0)) {
         switch_branch();
       }
       restart_plan();
