@@ -1120,12 +1120,12 @@ namespace fixed_detail {
 // uses all of w30.
 // The constant and the inner term: B(w) = kHaversineB0 - w q18 (q18 in Q0.18), w given in Q2.14.
 constexpr uint32_t kHaversineB0 = UINT32_C(2649010682);  // b0 in Q0.32
+// B(w) = b0 - w (b1 - w b2), b0 = 0.61677086209, b1 = 0.12634892434, b2 = 0.00958198370.
+constexpr uint16_t kHaversineB1 = 33122;  // b1 in Q0.18
+constexpr uint16_t kHaversineB2 = 10047;  // b2 in Q0.20
 inline uint16_t haversine_q18(uint16_t w14) {
-  // B(w) = b0 - w (b1 - w b2), b0 = 0.61677086209, b1 = 0.12634892434, b2 = 0.00958198370.
-  constexpr uint16_t kB1 = 33122;  // b1 in Q0.18
-  constexpr uint16_t kB2 = 10047;  // b2 in Q0.20
   // Q14 * Q20 >> 16 = Q18, rounded (truncating here would bias h by up to 3.8e-6).
-  return static_cast<uint16_t>(kB1 - hi16(mul16(w14, kB2) + 0x8000u));
+  return static_cast<uint16_t>(kHaversineB1 - hi16(mul16(w14, kHaversineB2) + 0x8000u));
 }
 inline uint32_t haversine_b32(uint32_t w30) {
   return kHaversineB0 - mul32x16(w30, haversine_q18(hi16(w30)));  // Q30 * Q18 >> 16 = Q32
@@ -1283,29 +1283,57 @@ __attribute__((noinline)) inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
 inline uint16_t isqrt32(uint32_t n, uint32_t& rem) { return isqrt32_portable(n, rem); }
 #endif
 
-// Inverse-ramp kernel: g = acos(1 - 2y) / pi = (2/pi) asin(sqrt(y)) for y in [0, 0.5], y in Q0.32
-// (y32 <= 2^31). g = sqrt(y) R(y), R a minimax fit on powers {0, 1, 2, 4} of y
-// (|error of g| <= 1.9e-6). All coefficients are positive and every product rounds down, so g is
-// non-decreasing in y by construction (the model needs monotone inverse ramps). Returns Q0.32.
-inline uint32_t ramp_inv_q32(uint32_t y32) {
+// The kernels of cos_ramp and cos_ramp_inv on the lower half, x in Q0.32 (x32 <= 2^31) -> the
+// ramp in Q0.32 (<= 2^31), one copy of what the two share: the square of x's top 16 bits, its
+// top half times a constant, the 32x16 products at the end.
+//
+// Inverse ramp: g = acos(1 - 2y) / pi = (2/pi) asin(sqrt(y)) for y in [0, 0.5]. g = sqrt(y) R(y),
+// R a minimax fit on powers {0, 1, 2, 4} of y (|error of g| <= 1.9e-6), on y's top 16 bits; the
+// root of all of y32. All coefficients are positive and every product rounds down, so g is
+// non-decreasing in y by construction (the model needs monotone inverse ramps).
+//
+// Haversine ramp: h(x) = 0.5 [1 - cos(pi x)], from x's top 16 bits xm. (2x)^2 in Q0.30 equals x^2
+// in Q0.32: the product of the Q0.16 raw values, exactly. h = w B = 4 x^2 B in Q0.30 is x^2 B in
+// Q0.32: B = b0 - w q18 (haversine_b32), then B x, then B x^2, three 32x16 products in a loop,
+// one copy of the product's code (their floors lose < 2^-29 of h; a full 32x32 grid would cost
+// ~150 B more). h < 2^30 in Q0.30 (B < b0 < 2^32 times x <= 1/2 twice), so the shift to Q0.32
+// keeps every bit.
+inline uint32_t ramp_kernel_q32(uint32_t x32, bool inverse) {
   // R(y) = r0 + y (r1 + y (r2 + y^2 r4)), r0 = 0.63662460556, r1 = 0.10561080269,
   // r2 = 0.05413052369, r4 = 0.06626434138.
   constexpr uint32_t kR0 = UINT32_C(2734281861);  // r0 in Q0.32
   constexpr uint16_t kR1 = 27685;                 // r1 in Q0.18
   constexpr uint16_t kR2 = 28380;                 // r2 in Q0.19
   constexpr uint16_t kR4 = 34742;                 // r4 in Q0.19
-  uint32_t rem;
-  const uint16_t root = isqrt32(y32, rem);  // floor(sqrt(y)) in Q0.16
-  // Round to nearest (still monotone); y <= 1/2 keeps the result below 2^16.
-  const uint16_t s16 = static_cast<uint16_t>(root + (rem > root ? 1u : 0u));
-  const uint16_t y16 = hi16(y32);                                            // Q0.16, <= 0.5
-  const uint16_t yy16 = hi16(mul16(y16, y16));                               // y^2, Q0.16
-  const uint16_t t19 = static_cast<uint16_t>(kR2 + hi16(mul16(yy16, kR4)));  // Q0.19
-  const uint16_t t18 = static_cast<uint16_t>(kR1 + (hi16(mul16(y16, t19)) >> 1));  // Q0.18
-  const uint32_t r32 = kR0 + (mul16(y16, t18) >> 2);                               // Q0.32
-  const uint32_t g = mul32x16(r32, s16);                                           // Q0.32
-  return g < kHalfQ32 ? g : kHalfQ32;  // g <= 0.5 keeps the mirrored upper half monotone
+  const uint16_t xm = hi16(x32);                  // Q0.16, <= 0.5
+  const uint32_t sq = mul16(xm, xm);              // x^2 in Q0.32
+  // y^2 r4 in Q0.19 (inverse); w b2 in Q0.18 (haversine, Q14 * Q20 >> 16, rounded below).
+  const uint32_t p = mul16(hi16(sq), inverse ? kR4 : kHaversineB2);
+  uint32_t v;
+  uint16_t factor;
+  uint8_t i = 0;  // the haversine's three products; the inverse's last one
+  if (inverse) {
+    uint32_t rem;
+    const uint16_t root = isqrt32(x32, rem);  // floor(sqrt(y)) in Q0.16
+    // Round to nearest (still monotone); y <= 1/2 keeps the result below 2^16.
+    factor = static_cast<uint16_t>(root + (rem > root ? 1u : 0u));
+    const uint16_t t19 = static_cast<uint16_t>(kR2 + hi16(p));                      // Q0.19
+    const uint16_t t18 = static_cast<uint16_t>(kR1 + (hi16(mul16(xm, t19)) >> 1));  // Q0.18
+    v = kR0 + (mul16(xm, t18) >> 2);                                                 // Q0.32
+    i = 2;                                                                           // R sqrt(y)
+  } else {
+    v = sq;
+    factor = static_cast<uint16_t>(kHaversineB1 - hi16(p + 0x8000u));  // haversine_q18
+  }
+  for (; i < 3; ++i) {
+    v = mul32x16(v, factor);
+    if (i == 0) v = kHaversineB0 - v;
+    factor = xm;
+  }
+  if (!inverse) v <<= 2;                  // Q0.30 -> Q0.32
+  return v < kHalfQ32 ? v : kHalfQ32;  // <= 0.5 keeps the mirrored upper half monotone
 }
+inline uint32_t ramp_inv_q32(uint32_t y32) { return ramp_kernel_q32(y32, true); }
 
 // 2^f for f in [0, 1) given in Q0.16; returns Q2.30 (in [2^30, 2^31)). Degree-5 minimax fit,
 // |error| <= 1.1e-7; inner Horner steps on 16 bits with per-step scaling, the last two on 32.
@@ -1342,27 +1370,6 @@ inline Fixed sin(Fixed x) {
 }
 
 namespace fixed_detail {
-// The kernels of cos_ramp and cos_ramp_inv on the lower half: x in Q0.16 (<= 0.5) -> the ramp in
-// Q0.32 (<= 2^31).
-
-// h(x) = 0.5 [1 - cos(pi x)]. (2x)^2 in Q0.30 equals x^2 in Q0.32: the product of the Q0.16 raw
-// values, exactly. h = w B = 4 x^2 B in Q0.30 is x^2 B in Q0.32: B = b0 - w q18 (haversine_b32),
-// then B x, then B x^2, three 32x16 products in a loop, one copy of the product's code (their
-// floors lose < 2^-29 of h; a full 32x32 grid would cost ~150 B more).
-inline uint32_t haversine_ramp_q32(uint16_t xm) {
-  const uint32_t w30 = mul16(xm, xm);
-  uint32_t h30 = w30;
-  uint16_t factor = haversine_q18(hi16(w30));
-  for (uint8_t i = 0; i < 3; ++i) {
-    h30 = mul32x16(h30, factor);
-    if (i == 0) h30 = kHaversineB0 - h30;
-    factor = xm;
-  }
-  return half_at_most_q30(h30) << 2;
-}
-// g(y) = acos(1 - 2y) / pi.
-inline uint32_t ramp_inv_half_q32(uint16_t ym) { return ramp_inv_q32(static_cast<uint32_t>(ym) << 16); }
-
 // The rest of both ramps, one copy for the two: x clamped to [0, 1], the mirror symmetry
 // f(1 - x) = 1 - f(x) so the kernel only sees x <= 0.5, the kernel's Q0.32 rounded to Q16.16.
 // Non-decreasing in x when the kernel is (checked exhaustively by the tests).
@@ -1370,9 +1377,10 @@ __attribute__((noinline)) inline Fixed mirrored_ramp(Fixed x, bool inverse) {
   const int32_t r = x.raw();
   if (r <= 0) return Fixed::from_raw(0);
   if (r >= kRawOne) return Fixed::from_raw(kRawOne);
-  const bool upper = r > kRawOne / 2;
-  const uint16_t xm = static_cast<uint16_t>(upper ? kRawOne - r : r);  // Q0.16, <= 0.5
-  const int32_t h = static_cast<int32_t>(hi16((inverse ? ramp_inv_half_q32(xm) : haversine_ramp_q32(xm)) + 0x8000u));
+  const uint16_t r16 = lo16(static_cast<uint32_t>(r));  // 0 < r < 1: the fraction alone
+  const bool upper = r16 > 0x8000u;
+  const uint16_t xm = upper ? static_cast<uint16_t>(0u - r16) : r16;  // Q0.16, <= 0.5
+  const int32_t h = static_cast<int32_t>(hi16(ramp_kernel_q32(static_cast<uint32_t>(xm) << 16, inverse) + 0x8000u));
   return Fixed::from_raw(upper ? kRawOne - h : h);
 }
 }  // namespace fixed_detail
