@@ -121,6 +121,16 @@ uint8_t self_check() {
       }
     }
   }
+  // The ramps' products, every input of the lower half, both kernels (s: any root).
+  for (uint16_t xm = 0; xm <= 0x8000u; ++xm) {
+    const uint16_t s = static_cast<uint16_t>(random_operand());
+    for (uint8_t inv = 0; inv < 2; ++inv) {
+      if (sma::fixed_detail::ramp_products(xm, s, inv != 0) !=
+          sma::fixed_detail::ramp_products_portable(xm, s, inv != 0)) {
+        ++mismatches;
+      }
+    }
+  }
   for (uint16_t i = 0; i < 20000; ++i) {
     const int32_t a = random_operand();
     const int32_t b = random_operand();

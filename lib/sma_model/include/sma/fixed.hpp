@@ -1120,12 +1120,12 @@ namespace fixed_detail {
 // uses all of w30.
 // The constant and the inner term: B(w) = kHaversineB0 - w q18 (q18 in Q0.18), w given in Q2.14.
 constexpr uint32_t kHaversineB0 = UINT32_C(2649010682);  // b0 in Q0.32
+// B(w) = b0 - w (b1 - w b2), b0 = 0.61677086209, b1 = 0.12634892434, b2 = 0.00958198370.
+constexpr uint16_t kHaversineB1 = 33122;  // b1 in Q0.18
+constexpr uint16_t kHaversineB2 = 10047;  // b2 in Q0.20
 inline uint16_t haversine_q18(uint16_t w14) {
-  // B(w) = b0 - w (b1 - w b2), b0 = 0.61677086209, b1 = 0.12634892434, b2 = 0.00958198370.
-  constexpr uint16_t kB1 = 33122;  // b1 in Q0.18
-  constexpr uint16_t kB2 = 10047;  // b2 in Q0.20
   // Q14 * Q20 >> 16 = Q18, rounded (truncating here would bias h by up to 3.8e-6).
-  return static_cast<uint16_t>(kB1 - hi16(mul16(w14, kB2) + 0x8000u));
+  return static_cast<uint16_t>(kHaversineB1 - hi16(mul16(w14, kHaversineB2) + 0x8000u));
 }
 inline uint32_t haversine_b32(uint32_t w30) {
   return kHaversineB0 - mul32x16(w30, haversine_q18(hi16(w30)));  // Q30 * Q18 >> 16 = Q32
@@ -1283,29 +1283,202 @@ __attribute__((noinline)) inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
 inline uint16_t isqrt32(uint32_t n, uint32_t& rem) { return isqrt32_portable(n, rem); }
 #endif
 
-// Inverse-ramp kernel: g = acos(1 - 2y) / pi = (2/pi) asin(sqrt(y)) for y in [0, 0.5], y in Q0.32
-// (y32 <= 2^31). g = sqrt(y) R(y), R a minimax fit on powers {0, 1, 2, 4} of y
-// (|error of g| <= 1.9e-6). All coefficients are positive and every product rounds down, so g is
-// non-decreasing in y by construction (the model needs monotone inverse ramps). Returns Q0.32.
-inline uint32_t ramp_inv_q32(uint32_t y32) {
-  // R(y) = r0 + y (r1 + y (r2 + y^2 r4)), r0 = 0.63662460556, r1 = 0.10561080269,
-  // r2 = 0.05413052369, r4 = 0.06626434138.
-  constexpr uint32_t kR0 = UINT32_C(2734281861);  // r0 in Q0.32
-  constexpr uint16_t kR1 = 27685;                 // r1 in Q0.18
-  constexpr uint16_t kR2 = 28380;                 // r2 in Q0.19
-  constexpr uint16_t kR4 = 34742;                 // r4 in Q0.19
-  uint32_t rem;
-  const uint16_t root = isqrt32(y32, rem);  // floor(sqrt(y)) in Q0.16
-  // Round to nearest (still monotone); y <= 1/2 keeps the result below 2^16.
-  const uint16_t s16 = static_cast<uint16_t>(root + (rem > root ? 1u : 0u));
-  const uint16_t y16 = hi16(y32);                                            // Q0.16, <= 0.5
-  const uint16_t yy16 = hi16(mul16(y16, y16));                               // y^2, Q0.16
-  const uint16_t t19 = static_cast<uint16_t>(kR2 + hi16(mul16(yy16, kR4)));  // Q0.19
-  const uint16_t t18 = static_cast<uint16_t>(kR1 + (hi16(mul16(y16, t19)) >> 1));  // Q0.18
-  const uint32_t r32 = kR0 + (mul16(y16, t18) >> 2);                               // Q0.32
-  const uint32_t g = mul32x16(r32, s16);                                           // Q0.32
-  return g < kHalfQ32 ? g : kHalfQ32;  // g <= 0.5 keeps the mirrored upper half monotone
+// The kernels of cos_ramp and cos_ramp_inv on the lower half, x in Q0.32 (x32 <= 2^31) -> the
+// ramp in Q0.32 (<= 2^31), one copy of what the two share: the square of x's top 16 bits, its
+// top half times a constant, the 32x16 products at the end.
+//
+// Inverse ramp: g = acos(1 - 2y) / pi = (2/pi) asin(sqrt(y)) for y in [0, 0.5]. g = sqrt(y) R(y),
+// R a minimax fit on powers {0, 1, 2, 4} of y (|error of g| <= 1.9e-6), on y's top 16 bits; the
+// root of all of y32. All coefficients are positive and every product rounds down, so g is
+// non-decreasing in y by construction (the model needs monotone inverse ramps).
+// R(y) = r0 + y (r1 + y (r2 + y^2 r4)), r0 = 0.63662460556, r1 = 0.10561080269,
+// r2 = 0.05413052369, r4 = 0.06626434138.
+constexpr uint32_t kRampR0 = UINT32_C(2734281861);  // r0 in Q0.32
+constexpr uint16_t kRampR1 = 27685;                 // r1 in Q0.18
+constexpr uint16_t kRampR2 = 28380;                 // r2 in Q0.19
+constexpr uint16_t kRampR4 = 34742;                 // r4 in Q0.19
+//
+// Haversine ramp: h(x) = 0.5 [1 - cos(pi x)], from x's top 16 bits xm. (2x)^2 in Q0.30 equals x^2
+// in Q0.32: the product of the Q0.16 raw values, exactly. h = w B = 4 x^2 B in Q0.30 is x^2 B in
+// Q0.32: B = b0 - w q18 (haversine_b32), then B x, then B x^2, three 32x16 products in a loop
+// (their floors lose < 2^-29 of h; a full 32x32 grid would cost ~150 B more). h < 2^30 in Q0.30
+// (B < b0 < 2^32 times x <= 1/2 twice), so the shift to Q0.32 keeps every bit.
+//
+// The products after the root (s: sqrt(y) rounded, Q0.16; the inverse's only). Portable version;
+// on the AVR the reference the benchmark checks the assembly against.
+inline uint32_t ramp_products_portable(uint16_t xm, uint16_t s, bool inverse) {
+  const uint32_t sq = mul16(xm, xm);  // x^2 in Q0.32
+  // y^2 r4 in Q0.19 (inverse); w b2 in Q0.18 (haversine, Q14 * Q20 >> 16, rounded below).
+  const uint32_t p = mul16(hi16(sq), inverse ? kRampR4 : kHaversineB2);
+  uint32_t v;
+  uint16_t factor;
+  uint8_t i = 0;  // the haversine's three products; the inverse's last one
+  if (inverse) {
+    const uint16_t t19 = static_cast<uint16_t>(kRampR2 + hi16(p));                      // Q0.19
+    const uint16_t t18 = static_cast<uint16_t>(kRampR1 + (hi16(mul16(xm, t19)) >> 1));  // Q0.18
+    v = kRampR0 + (mul16(xm, t18) >> 2);                                                 // Q0.32
+    factor = s;
+    i = 2;  // R sqrt(y)
+  } else {
+    v = sq;
+    factor = static_cast<uint16_t>(kHaversineB1 - hi16(p + 0x8000u));  // haversine_q18
+  }
+  for (; i < 3; ++i) {
+    v = mul32x16_portable(v, factor);
+    if (i == 0) v = kHaversineB0 - v;
+    factor = xm;
+  }
+  if (!inverse) v <<= 2;               // Q0.30 -> Q0.32
+  return v < kHalfQ32 ? v : kHalfQ32;  // <= 0.5 keeps the mirrored upper half monotone
 }
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+// The same in one assembly block whose products all call one local 16x16 routine (label 7): one
+// copy of its four MULs instead of one per product, ~7 cycles of rcall and ret a product, and
+// no registers saved around it. A 32x16 product is two of them:
+// floor(v b / 2^16) = hi16(v) b + floor(lo16(v) b / 2^16).
+inline uint32_t ramp_products(uint16_t xm, uint16_t s, bool inverse) {
+  uint32_t v;  // the result
+  uint32_t p;  // the routine's product
+  uint16_t a;  // its operands
+  uint16_t b;
+  uint8_t i;
+  __asm__(
+      "movw %A[a], %A[x]  \n\t"
+      "movw %A[b], %A[x]  \n\t"
+      "rcall 7f           \n\t"  // x^2
+      "movw %A[v], %A[p]  \n\t"
+      "movw %C[v], %C[p]  \n\t"
+      "movw %A[a], %C[p]  \n\t"
+      "ldi  %A[b], lo8(%[kb2]) \n\t"
+      "ldi  %B[b], hi8(%[kb2]) \n\t"
+      "tst  %[inv]        \n\t"
+      "breq 1f            \n\t"
+      "ldi  %A[b], lo8(%[kr4]) \n\t"
+      "ldi  %B[b], hi8(%[kr4]) \n\t"
+      "1:                 \n\t"
+      "rcall 7f           \n\t"  // hi16(x^2) r4 or b2
+      "ldi  %[i], 0       \n\t"
+      "tst  %[inv]        \n\t"
+      "breq 2f            \n\t"
+      "movw %A[b], %C[p]  \n\t"  // inverse: t19 = r2 + hi16(p)
+      "subi %A[b], lo8(-(%[kr2])) \n\t"
+      "sbci %B[b], hi8(-(%[kr2])) \n\t"
+      "movw %A[a], %A[x]  \n\t"
+      "rcall 7f           \n\t"  // x t19
+      "movw %A[b], %C[p]  \n\t"  // t18 = r1 + hi16(x t19) / 2
+      "lsr  %B[b]         \n\t"
+      "ror  %A[b]         \n\t"
+      "subi %A[b], lo8(-(%[kr1])) \n\t"
+      "sbci %B[b], hi8(-(%[kr1])) \n\t"
+      "rcall 7f           \n\t"  // x t18
+      "lsr  %D[p]         \n\t"
+      "ror  %C[p]         \n\t"
+      "ror  %B[p]         \n\t"
+      "ror  %A[p]         \n\t"
+      "lsr  %D[p]         \n\t"
+      "ror  %C[p]         \n\t"
+      "ror  %B[p]         \n\t"
+      "ror  %A[p]         \n\t"
+      "movw %A[v], %A[p]  \n\t"  // v = r0 + x t18 / 4
+      "movw %C[v], %C[p]  \n\t"
+      "subi %A[v], lo8(-(%[kr0])) \n\t"
+      "sbci %B[v], hi8(-(%[kr0])) \n\t"
+      "sbci %C[v], hlo8(-(%[kr0])) \n\t"
+      "sbci %D[v], hhi8(-(%[kr0])) \n\t"
+      "movw %A[b], %A[s]  \n\t"
+      "ldi  %[i], 2       \n\t"
+      "rjmp 3f            \n\t"
+      "2:                 \n\t"  // haversine: b1 - hi16(p + 2^15)
+      "lsl  %B[p]         \n\t"
+      "adc  %C[p], r1     \n\t"  // r1 is zero after the routine
+      "adc  %D[p], r1     \n\t"
+      "ldi  %A[b], lo8(%[kb1]) \n\t"
+      "ldi  %B[b], hi8(%[kb1]) \n\t"
+      "sub  %A[b], %C[p]  \n\t"
+      "sbc  %B[b], %D[p]  \n\t"
+      "3:                 \n\t"  // v = floor(v b / 2^16)
+      "movw %A[a], %A[v]  \n\t"
+      "rcall 7f           \n\t"  // lo16(v) b
+      "movw %A[a], %C[v]  \n\t"
+      "movw %A[v], %C[p]  \n\t"
+      "rcall 7f           \n\t"  // hi16(v) b
+      "add  %A[p], %A[v]  \n\t"
+      "adc  %B[p], %B[v]  \n\t"
+      "adc  %C[p], r1     \n\t"
+      "adc  %D[p], r1     \n\t"
+      "movw %A[v], %A[p]  \n\t"
+      "movw %C[v], %C[p]  \n\t"
+      "tst  %[i]          \n\t"
+      "brne 4f            \n\t"
+      "ldi  %A[v], lo8(%[b0])  \n\t"  // the first: v = b0 - v
+      "ldi  %B[v], hi8(%[b0])  \n\t"
+      "ldi  %C[v], hlo8(%[b0]) \n\t"
+      "ldi  %D[v], hhi8(%[b0]) \n\t"
+      "sub  %A[v], %A[p]  \n\t"
+      "sbc  %B[v], %B[p]  \n\t"
+      "sbc  %C[v], %C[p]  \n\t"
+      "sbc  %D[v], %D[p]  \n\t"
+      "4:                 \n\t"
+      "movw %A[b], %A[x]  \n\t"
+      "inc  %[i]          \n\t"
+      "cpi  %[i], 3       \n\t"
+      "brlo 3b            \n\t"
+      "tst  %[inv]        \n\t"
+      "brne 5f            \n\t"
+      "lsl  %A[v]         \n\t"  // Q0.30 -> Q0.32
+      "rol  %B[v]         \n\t"
+      "rol  %C[v]         \n\t"
+      "rol  %D[v]         \n\t"
+      "lsl  %A[v]         \n\t"
+      "rol  %B[v]         \n\t"
+      "rol  %C[v]         \n\t"
+      "rol  %D[v]         \n\t"
+      "5:                 \n\t"
+      "sbrs %D[v], 7      \n\t"  // at most 2^31
+      "rjmp 8f            \n\t"
+      "clr  %A[v]         \n\t"
+      "clr  %B[v]         \n\t"
+      "clr  %C[v]         \n\t"
+      "ldi  %D[v], 0x80   \n\t"
+      "rjmp 8f            \n\t"
+      "7:                 \n\t"  // p = a b, r1 = 0 on return
+      "mul  %A[a], %A[b]  \n\t"
+      "movw %A[p], r0     \n\t"
+      "mul  %B[a], %B[b]  \n\t"
+      "movw %C[p], r0     \n\t"
+      "mul  %A[a], %B[b]  \n\t"
+      "add  %B[p], r0     \n\t"
+      "adc  %C[p], r1     \n\t"
+      "clr  r1            \n\t"
+      "adc  %D[p], r1     \n\t"
+      "mul  %B[a], %A[b]  \n\t"
+      "add  %B[p], r0     \n\t"
+      "adc  %C[p], r1     \n\t"
+      "clr  r1            \n\t"
+      "adc  %D[p], r1     \n\t"
+      "ret                \n\t"
+      "8:                 \n\t"
+      : [v] "=&d"(v), [p] "=&r"(p), [a] "=&r"(a), [b] "=&d"(b), [i] "=&d"(i)
+      : [x] "r"(xm), [s] "r"(s), [inv] "r"(static_cast<uint8_t>(inverse)), [kr0] "n"(kRampR0),
+        [kr1] "n"(kRampR1), [kr2] "n"(kRampR2), [kr4] "n"(kRampR4), [kb1] "n"(kHaversineB1),
+        [kb2] "n"(kHaversineB2), [b0] "n"(kHaversineB0)
+      : "r0");
+  return v;
+}
+#else
+inline uint32_t ramp_products(uint16_t xm, uint16_t s, bool inverse) { return ramp_products_portable(xm, s, inverse); }
+#endif
+inline uint32_t ramp_kernel_q32(uint32_t x32, bool inverse) {
+  uint16_t s = 0;
+  if (inverse) {
+    uint32_t rem;
+    const uint16_t root = isqrt32(x32, rem);  // floor(sqrt(y)) in Q0.16
+    // Round to nearest (still monotone); y <= 1/2 keeps the result below 2^16.
+    s = static_cast<uint16_t>(root + (rem > root ? 1u : 0u));
+  }
+  return ramp_products(hi16(x32), s, inverse);
+}
+inline uint32_t ramp_inv_q32(uint32_t y32) { return ramp_kernel_q32(y32, true); }
 
 // 2^f for f in [0, 1) given in Q0.16; returns Q2.30 (in [2^30, 2^31)). Degree-5 minimax fit,
 // |error| <= 1.1e-7; inner Horner steps on 16 bits with per-step scaling, the last two on 32.
@@ -1342,27 +1515,6 @@ inline Fixed sin(Fixed x) {
 }
 
 namespace fixed_detail {
-// The kernels of cos_ramp and cos_ramp_inv on the lower half: x in Q0.16 (<= 0.5) -> the ramp in
-// Q0.32 (<= 2^31).
-
-// h(x) = 0.5 [1 - cos(pi x)]. (2x)^2 in Q0.30 equals x^2 in Q0.32: the product of the Q0.16 raw
-// values, exactly. h = w B = 4 x^2 B in Q0.30 is x^2 B in Q0.32: B = b0 - w q18 (haversine_b32),
-// then B x, then B x^2, three 32x16 products in a loop, one copy of the product's code (their
-// floors lose < 2^-29 of h; a full 32x32 grid would cost ~150 B more).
-inline uint32_t haversine_ramp_q32(uint16_t xm) {
-  const uint32_t w30 = mul16(xm, xm);
-  uint32_t h30 = w30;
-  uint16_t factor = haversine_q18(hi16(w30));
-  for (uint8_t i = 0; i < 3; ++i) {
-    h30 = mul32x16(h30, factor);
-    if (i == 0) h30 = kHaversineB0 - h30;
-    factor = xm;
-  }
-  return half_at_most_q30(h30) << 2;
-}
-// g(y) = acos(1 - 2y) / pi.
-inline uint32_t ramp_inv_half_q32(uint16_t ym) { return ramp_inv_q32(static_cast<uint32_t>(ym) << 16); }
-
 // The rest of both ramps, one copy for the two: x clamped to [0, 1], the mirror symmetry
 // f(1 - x) = 1 - f(x) so the kernel only sees x <= 0.5, the kernel's Q0.32 rounded to Q16.16.
 // Non-decreasing in x when the kernel is (checked exhaustively by the tests).
@@ -1370,9 +1522,10 @@ __attribute__((noinline)) inline Fixed mirrored_ramp(Fixed x, bool inverse) {
   const int32_t r = x.raw();
   if (r <= 0) return Fixed::from_raw(0);
   if (r >= kRawOne) return Fixed::from_raw(kRawOne);
-  const bool upper = r > kRawOne / 2;
-  const uint16_t xm = static_cast<uint16_t>(upper ? kRawOne - r : r);  // Q0.16, <= 0.5
-  const int32_t h = static_cast<int32_t>(hi16((inverse ? ramp_inv_half_q32(xm) : haversine_ramp_q32(xm)) + 0x8000u));
+  const uint16_t r16 = lo16(static_cast<uint32_t>(r));  // 0 < r < 1: the fraction alone
+  const bool upper = r16 > 0x8000u;
+  const uint16_t xm = upper ? static_cast<uint16_t>(0u - r16) : r16;  // Q0.16, <= 0.5
+  const int32_t h = static_cast<int32_t>(hi16(ramp_kernel_q32(static_cast<uint32_t>(xm) << 16, inverse) + 0x8000u));
   return Fixed::from_raw(upper ? kRawOne - h : h);
 }
 }  // namespace fixed_detail
