@@ -56,11 +56,22 @@ def text_from_map(path):
     pat_full = re.compile(r'^ (\.\S+)\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S.*)$')
     pat_name = re.compile(r'^ (\.\S+)$')
     pat_rest = re.compile(r'^\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S.*)$')
+    globals_ = set()
     i = 0
+    inside = False  # in the .text output section's part of the map
     while i < len(lines):
         m = pat_out.match(lines[i])
         if m and end is None:
             end = int(m.group(1), 16) + int(m.group(2), 16)
+            inside = True
+        elif re.match(r'^\.\S', lines[i]):
+            inside = False
+        if not inside:
+            i += 1
+            continue
+        g = re.match(r'^\s+0x([0-9a-f]+)\s+[A-Za-z_]\S*$', lines[i])
+        if g:
+            globals_.add(int(g.group(1), 16))
         m = pat_full.match(lines[i])
         if m:
             out.append((m.group(1), int(m.group(2), 16), int(m.group(3), 16), m.group(4)))
@@ -74,8 +85,7 @@ def text_from_map(path):
         i += 1
     if end is None:
         sys.exit(f'{path}: no .text output section')
-    globals_ = {int(m.group(1), 16) for m in re.finditer(r'(?m)^\s+0x([0-9a-f]+)\s+[A-Za-z_]\S*$', text[at:])}
-    return sorted((s for s in out if s[2] > 0 and s[1] < end), key=lambda s: s[1]), end, globals_
+    return sorted((s for s in out if s[2] > 0), key=lambda s: s[1]), end, globals_
 
 
 def pattern_of(name, path):
@@ -368,7 +378,7 @@ def main():
     ap.add_argument('--ld', default='avr-ld')
     ap.add_argument('--emulation', default='avr5')
     ap.add_argument('--steps', type=int, default=100000, help='annealing steps per start')
-    ap.add_argument('--starts', type=int, default=4, help='annealing runs, the best kept')
+    ap.add_argument('--starts', type=int, default=6, help='annealing runs, the best kept')
     ap.add_argument('-o', '--out', required=True)
     a = ap.parse_args()
 
