@@ -128,7 +128,6 @@ class Layout:
         if any(s[1] >= first and s[1] < last and not pattern_of(s[0], s[3]) for s in secs):
             sys.exit('layout.py: a fixed section among the function sections of the first link')
         # Sections by address; sections of one pattern (the same name in two objects) are one unit.
-        self.secs = movable
         unit_of_pattern = {}
         sec_unit = []
         for name, start, size, path in movable:
@@ -268,7 +267,8 @@ class Layout:
         self.obj_id = np.array([objs[o] for o in self.obj])
 
     def relax(self, order):
-        """The second link's relaxation for this order: (relaxed edges, unit sizes, positions)."""
+        """The second link's relaxation of this order: (relaxed edges, unit sizes, the addresses of
+        the call sites, of their targets)."""
         o = np.array(order)
         nxt = np.empty(self.n, dtype=np.int64)
         nxt[o[:-1]] = o[1:]
