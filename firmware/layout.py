@@ -4,12 +4,21 @@
 The AVR's CALL and JMP take 4 bytes; the linker's relaxation (--relax) turns them into 2-byte
 RCALL/RJMP where the target lies within +-4 KB. In the default order the soft-float library
 sits at the end of the 30 KB image, out of reach of most of its ~400 call sites. This script reads
-a first link (built with -ffunction-sections at link time, its map file and its disassembly),
-orders the functions so that callers lie near their callees (the soft-float block, libgcc, the
-console's reply helpers ...), and writes a copy of the linker's default script whose .text lists
-the sections in that order. The second link uses it; anything not listed (a function renamed
-since) falls through to the script's usual `*(.text.*)`, so a stale order costs bytes, never
-correctness. The library blocks keep their internal order (their own RCALLs stay in reach).
+a first link made without relaxation (with -ffunction-sections at link time, its map file and its
+disassembly: every CALL/JMP still 4 bytes, every section its size before relaxation), orders the
+sections so that callers lie near their callees, and writes a copy of the linker's default script
+whose .text lists the sections in that order. The second link uses it; anything not listed (a
+function renamed since) falls through to the script's usual `*(.text.*)`, so a stale order costs
+bytes, never correctness.
+
+Each section moves alone: the program's functions, and each member of the libraries (avr-libc's
+soft-float and its other code, libgcc): between members they call and jump with relaxable CALL/JMP;
+their RJMP/RCALL/branches stay inside a member (the libraries' relocations). Sections joined by
+such a short branch all the same (none today) move together, in their first link's order.
+
+The count it maximises is the second link's: the relaxation's fix point (a CALL made short moves
+everything after it by 2 bytes, which brings others into reach), replayed on the first link's
+addresses; a RET after a jump, which the relaxation deletes, is deleted here too.
 
 usage: layout.py --map first.map --elf first.elf --objdump avr-objdump --ld avr-ld
                  --emulation avr5 -o order.ld
@@ -21,27 +30,48 @@ import re
 import subprocess
 import sys
 
-try:  # (only faster: the same scores, so the same order, without it)
+try:
     import numpy as np
 except ImportError:
     np = None
 
-REACH = 4094  # bytes either way of an RCALL/RJMP (2 K words, the PC after the instruction)
+# A CALL/JMP at `dot` becomes RCALL/RJMP when -4094 <= target - dot <= 4098 (binutils'
+# elf32-avr.c, avr_relax_section: the 2-word reach, +2 forward because the deleted half lies
+# between). Once relaxed, the displacement is target - (dot + 2) in [-4096, 4094].
+GAP_LO, GAP_HI = -4094, 4098
+SKIPS = ('sbic', 'sbis', 'sbrc', 'sbrs', 'cpse')
 
 
-def sections_from_map(path):
-    """[(name, start, size, file)] of the input sections placed in .text, in address order."""
+def text_from_map(path):
+    """(input sections [(name, start, size, file)] placed in .text in address order, .text's end,
+    the addresses of the global symbols)."""
     text = open(path).read()
     at = text.find('Linker script and memory map')
     if at < 0:
         sys.exit(f'{path}: no memory map')
     lines = text[at:].splitlines()
     out = []
-    i = 0
-    pat_full = re.compile(r'^ (\.text\S*)\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S.*)$')
-    pat_name = re.compile(r'^ (\.text\S*)$')
+    end = None
+    pat_out = re.compile(r'^\.text\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)')
+    pat_full = re.compile(r'^ (\.\S+)\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S.*)$')
+    pat_name = re.compile(r'^ (\.\S+)$')
     pat_rest = re.compile(r'^\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S.*)$')
+    globals_ = set()
+    i = 0
+    inside = False  # in the .text output section's part of the map
     while i < len(lines):
+        m = pat_out.match(lines[i])
+        if m and end is None:
+            end = int(m.group(1), 16) + int(m.group(2), 16)
+            inside = True
+        elif re.match(r'^\.\S', lines[i]):
+            inside = False
+        if not inside:
+            i += 1
+            continue
+        g = re.match(r'^\s+0x([0-9a-f]+)\s+[A-Za-z_]\S*$', lines[i])
+        if g:
+            globals_.add(int(g.group(1), 16))
         m = pat_full.match(lines[i])
         if m:
             out.append((m.group(1), int(m.group(2), 16), int(m.group(3), 16), m.group(4)))
@@ -53,37 +83,291 @@ def sections_from_map(path):
                     out.append((m.group(1), int(r.group(1), 16), int(r.group(2), 16), r.group(3)))
                     i += 1
         i += 1
-    return [s for s in out if s[2] > 0]
+    if end is None:
+        sys.exit(f'{path}: no .text output section')
+    return sorted((s for s in out if s[2] > 0), key=lambda s: s[1]), end, globals_
 
 
-def block_of(name, path):
-    """The unit a section moves with: a library's block (kept whole), or the section itself."""
-    if '.ltrans' in path:  # the program's own (LTO's output objects)
-        if name == '.text':
-            return None  # crt's and plain .text: fixed place
-        return name
-    if name == '.text.avr-libc.fplib':
-        # Each soft-float member alone: between members they call with CALL/JMP (relaxable), so
-        # __mulsf3 can sit near its callers and __divsf3 near its own.
-        m = re.match(r'.*/(lib[^/]+\.a)\(([^)]+)\)$', path)
-        return f'*{m.group(1)}:{m.group(2)}(.text.avr-libc.fplib)' if m else '*(.text.avr-libc.fplib)'
-    if name.startswith('.text.libgcc'):
-        return '*(.text.libgcc*)'
-    if name == '.text.avr-libc':
-        return '*(.text.avr-libc)'
-    return None
+def pattern_of(name, path):
+    """The linker-script pattern that places this one input section, or None (fixed place)."""
+    if not name.startswith('.text.'):
+        return None  # vectors, progmem, init/fini, crt's .text: where the default script puts them
+    m = re.match(r'.*/(lib[^/]+\.a)\(([^)]+)\)$', path)
+    if m:  # a library member: its own object's section only
+        return f'*{m.group(1)}:{m.group(2)}({name})'
+    return f'*({name})'
 
 
-def calls_from_elf(elf, objdump):
-    """[(site address, target address)] of every CALL/JMP/RCALL/RJMP with a symbolic target."""
+def disassembly(elf, objdump):
+    """[(address, size, mnemonic, target or None)] of every instruction, and the symbol addresses."""
     dis = subprocess.run([objdump, '-d', elf], capture_output=True, text=True, check=True).stdout
-    out = []
-    pat = re.compile(r'^\s*([0-9a-f]+):\s+(?:[0-9a-f]{2} )+\s*(call|jmp|rcall|rjmp)\s+\S+\s+;\s+0x([0-9a-f]+)')
+    insns, symbols = [], set()
+    pat = re.compile(r'^\s*([0-9a-f]+):\s+((?:[0-9a-f]{2} )+)\s*(\S+)[^;]*(?:;\s*(?:0x([0-9a-f]+))?.*)?$')
     for line in dis.splitlines():
+        m = re.match(r'^([0-9a-f]+) <[^>]+>:$', line)
+        if m:
+            symbols.add(int(m.group(1), 16))
+            continue
         m = pat.match(line)
         if m:
-            out.append((int(m.group(1), 16), int(m.group(3), 16)))
-    return out
+            op = m.group(3)
+            jumps = op in ('call', 'jmp', 'rcall', 'rjmp') or op.startswith('br')
+            target = int(m.group(4), 16) if m.group(4) and jumps else None
+            insns.append((int(m.group(1), 16), len(m.group(2).split()), op, target))
+    return insns, symbols
+
+
+class Layout:
+    """The movable units, the call edges between them and the relaxation's fix point."""
+
+    def __init__(self, secs, text_end, globals_, insns, symbols):
+        movable = [s for s in secs if pattern_of(s[0], s[3])]
+        if not movable:
+            sys.exit('layout.py: no function sections in the map (link with -ffunction-sections)')
+        first, last = movable[0][1], movable[-1][1] + movable[-1][2]
+        if any(s[1] >= first and s[1] < last and not pattern_of(s[0], s[3]) for s in secs):
+            sys.exit('layout.py: a fixed section among the function sections of the first link')
+        # Sections by address; sections of one pattern (the same name in two objects) are one unit.
+        unit_of_pattern = {}
+        sec_unit = []
+        for name, start, size, path in movable:
+            p = pattern_of(name, path)
+            sec_unit.append(unit_of_pattern.setdefault(p, len(unit_of_pattern)))
+        starts = [s[1] for s in movable]
+
+        def sec_at(addr):
+            lo_, hi_ = 0, len(starts) - 1
+            if addr < first or addr >= last:
+                return None
+            while lo_ < hi_:
+                mid = (lo_ + hi_ + 1) // 2
+                if starts[mid] <= addr:
+                    lo_ = mid
+                else:
+                    hi_ = mid - 1
+            return lo_
+
+        # Fixed short branches (RJMP/RCALL/BRxx) between two units: those units move together.
+        parent = list(range(len(unit_of_pattern)))
+
+        def root(u):
+            while parent[u] != u:
+                parent[u] = parent[parent[u]]
+                u = parent[u]
+            return u
+
+        for addr, size, op, target in insns:
+            if target is None or op in ('call', 'jmp'):
+                continue
+            a, b = sec_at(addr), sec_at(target)
+            if a is not None and b is not None and sec_unit[a] != sec_unit[b]:
+                parent[root(sec_unit[a])] = root(sec_unit[b])
+        # Units: [patterns], sections in first-link order; offsets as if placed one after another.
+        groups = {}
+        for k, (name, start, size, path) in enumerate(movable):
+            groups.setdefault(root(sec_unit[k]), []).append(k)
+        self.patterns, self.size = [], []
+        sec_place = {}  # section -> (unit, offset of the section in the unit)
+        # unit 0: everything before the movable sections (fixed); unit 1: everything after
+        self.patterns += [None, None]
+        self.size += [first, text_end - last]
+        for g in sorted(groups.values(), key=lambda g: movable[g[0]][1]):
+            u = len(self.size)
+            off = 0
+            pats = []
+            for p in sorted({sec_unit[k] for k in g}):
+                for k in g:
+                    if sec_unit[k] == p:
+                        sec_place[k] = (u, off)
+                        off += movable[k][2]
+                pats.append(next(pattern_of(movable[k][0], movable[k][3]) for k in g if sec_unit[k] == p))
+            self.patterns.append(pats)
+            self.size.append(off)
+
+        def place(addr):
+            """(unit, raw offset in it) of an address of .text."""
+            if addr < first:
+                return 0, addr
+            if addr >= last:
+                return 1, addr - last
+            k = sec_at(addr)
+            u, off = sec_place[k]
+            return u, off + addr - movable[k][1]
+
+        # Relaxable CALL/JMP (not the vector table's: relaxed there, they keep their 4 bytes),
+        # and the RETs after a jump that the relaxation deletes (no label on them, no branch to
+        # them, an instruction before the jump in its section and not a skip).
+        vectors_end = next((s[1] + s[2] for s in secs if s[0] == '.vectors'), 0)
+        branch_targets = {t for _, _, _, t in insns if t is not None}
+        # A RET that ends its unit stays where a relocation of its object points at the next
+        # section's start (the calls of a local function do, through the section's symbol):
+        # deleted here unless the next unit is a local function of the same object (an
+        # order-dependent deletion).
+        section_starts = {s[1] for s in secs}
+        unit_end = {}
+        for k, (name, start, size, path) in enumerate(movable):
+            u, off = sec_place[k]
+            if off + size == self.size[u]:
+                unit_end[start + size] = u
+        self.obj = [None, None] + [movable[next(k for k in sec_place if sec_place[k][0] == u)][3]
+                                   for u in range(2, len(self.size))]
+        self.end_ret = [False] * len(self.size)
+        self.local = [False, False] + [movable[next(k for k in sec_place if sec_place[k] == (u, 0))][1]
+                                       not in globals_ for u in range(2, len(self.size))]
+        edges, deleted = [], []
+        prev = [None, None]
+        for addr, size, op, target in insns:
+            if addr >= text_end:
+                break
+            if op in ('call', 'jmp') and target is not None and addr >= vectors_end and target < text_end:
+                edges.append(place(addr) + place(target))
+            if (op == 'ret' and prev[1] and prev[1][2] in ('call', 'jmp', 'rcall', 'rjmp')
+                    and prev[1][0] + prev[1][1] == addr and addr not in symbols
+                    and addr not in branch_targets and prev[1][0] not in section_starts
+                    and not (prev[0] and prev[0][2] in SKIPS)
+                    and addr >= vectors_end):
+                if addr + 2 in unit_end:
+                    self.end_ret[unit_end[addr + 2]] = True
+                else:
+                    deleted.append(place(addr))
+            prev = [prev[1], (addr, size, op, target)]
+        self.n = len(self.size)
+        self._arrays(edges, deleted)
+
+    def _arrays(self, edges, deleted):
+        n = self.n
+        edges.sort(key=lambda e: (e[0], e[1]))
+        E = len(edges)
+        self.E = E
+        self.cu = np.array([e[0] for e in edges], dtype=np.int64)
+        self.co = np.array([e[1] for e in edges], dtype=np.int64)
+        self.tu = np.array([e[2] for e in edges], dtype=np.int64)
+        self.to = np.array([e[3] for e in edges], dtype=np.int64)
+        self.raw = np.array(self.size, dtype=np.int64)
+        # RETs deleted whatever the order: fewer bytes in their unit, before later offsets.
+        dels = sorted(deleted)
+        self.raw_eff = self.raw.copy()
+        for u, _ in dels:
+            self.raw_eff[u] -= 2
+
+        def dels_before(u, off):
+            return sum(1 for du, do in dels if du == u and do < off)
+        self.co_fix = self.co - 2 * np.array([dels_before(u, o) for u, o in zip(self.cu, self.co)], dtype=np.int64)
+        self.to_fix = self.to - 2 * np.array([dels_before(u, o) for u, o in zip(self.tu, self.to)], dtype=np.int64)
+        # Edge blocks per calling unit (edges sorted by unit, offset): start index of each unit's
+        # block; for each edge's target, the index of the first site of its unit at or after it.
+        self.gstart = np.searchsorted(self.cu, np.arange(n), side='left')
+        self.gend = np.searchsorted(self.cu, np.arange(n), side='right')
+        keys = self.cu * (1 << 20) + self.co
+        self.tidx = np.searchsorted(keys, self.tu * (1 << 20) + self.to, side='left')
+        self.cross = self.cu != self.tu
+        self.end_ret = np.array(self.end_ret)
+        self.local = np.array(self.local)
+        objs = {o: i for i, o in enumerate(set(self.obj))}
+        self.obj_id = np.array([objs[o] for o in self.obj])
+
+    def relax(self, order):
+        """The second link's relaxation of this order: (relaxed edges, unit sizes, the addresses of
+        the call sites, of their targets)."""
+        o = np.array(order)
+        nxt = np.empty(self.n, dtype=np.int64)
+        nxt[o[:-1]] = o[1:]
+        nxt[o[-1]] = o[-1]
+        kept = (self.obj_id[nxt] == self.obj_id) & self.local[nxt]
+        raw = self.raw_eff - 2 * (self.end_ret & ~kept)
+        R = np.zeros(self.E, dtype=bool)
+        while True:
+            cs = np.concatenate(([0], np.cumsum(R)))
+            size = raw - 2 * (cs[self.gend] - cs[self.gstart])
+            pos = np.empty(self.n, dtype=np.int64)
+            pos[o] = np.cumsum(size[o]) - size[o]
+            idx = np.arange(self.E)
+            site = pos[self.cu] + self.co_fix - 2 * (cs[idx] - cs[self.gstart[self.cu]])
+            tgt = pos[self.tu] + self.to_fix - 2 * (cs[self.tidx] - cs[self.gstart[self.tu]])
+            gap = tgt - site
+            new = R | ((gap >= GAP_LO) & (gap <= GAP_HI))
+            if (new == R).all():
+                return R, size, site, tgt
+            R = new
+
+    def model(self, order):
+        """A fast score for the search, and the exact .text size of `order`.
+
+        The score takes the sizes and call-site offsets of `order` relaxed as fixed: the
+        calls in reach, plus half a call for each one out of reach, less the further it is
+        (a smoother landscape for the annealing, which then finds more calls in reach)."""
+        R, size, site, tgt = self.relax(order)
+        o = np.array(order)
+        pos = np.empty(self.n, dtype=np.int64)
+        pos[o] = np.cumsum(size[o]) - size[o]
+        c = self.cross
+        cu, tu = self.cu[c], self.tu[c]
+        site_off, tgt_off = (site - pos[self.cu])[c], (tgt - pos[self.tu])[c]
+
+        def score(order_):
+            oo = np.array(order_)
+            p = np.empty(self.n, dtype=np.int64)
+            p[oo] = np.cumsum(size[oo]) - size[oo]
+            g = p[tu] + tgt_off - p[cu] - site_off
+            # relaxed, the displacement g - 2 lies in [-4096, 4094]
+            out = np.maximum(np.maximum(-4094 - g, g - 4096), 0)
+            return float(np.count_nonzero(out == 0)) + 0.5 * float(np.exp(-out[out > 0] / 300.0).sum())
+        return score, int(size.sum())
+
+
+def anneal(lay, order, steps, seed):
+    """Annealing from `order` (a fixed seed: the same first link gives the same order): two
+    units swapped, or a run of 1..12 units moved elsewhere (half the time next to a unit the
+    first one calls or is called by), a worse order accepted with a probability that falls; the
+    model re-measured every 1000 steps, the smallest exact size seen kept."""
+    rng = random.Random(seed)
+    m = len(order)
+    partners = [[] for _ in range(lay.n)]
+    for a, b in zip(lay.cu[lay.cross], lay.tu[lay.cross]):
+        partners[a].append(int(b))
+        partners[b].append(int(a))
+    cur_order = best_order = order
+    best = None
+    t0, t1 = 3.0, 0.05
+    for step in range(steps + 1):
+        if step % 1000 == 0 or step == steps:
+            score, size = lay.model(cur_order)
+            if best is None or size < best:
+                best, best_order = size, cur_order
+            cur = score(cur_order)
+            if step == steps:
+                break
+        temp = t0 * (t1 / t0) ** (step / steps)
+        o = cur_order[:]
+        i = rng.randrange(1, m - 1)  # unit 0 (the fixed head) and unit m-1 (the tail) stay
+        if rng.random() < 0.2:
+            j = rng.randrange(1, m - 1)
+            o[i], o[j] = o[j], o[i]
+        else:
+            seg = o[i:min(i + rng.randint(1, 12), m - 1)]
+            del o[i:i + len(seg)]
+            if rng.random() < 0.5 and partners[seg[0]]:
+                v = rng.choice(partners[seg[0]])
+                j = o.index(v) if v in o else rng.randrange(1, len(o))
+                j = min(max(1, j + rng.randint(-2, 3)), len(o) - 1)
+            else:
+                j = rng.randrange(1, len(o))
+            o[j:j] = seg
+        s = score(o)
+        if s >= cur or rng.random() < math.exp((s - cur) / temp):
+            cur, cur_order = s, o
+    return best, best_order
+
+
+def search(lay, order, steps, starts):
+    """The best of several annealing runs (the landscape has many local optima: +-25 B between
+    seeds)."""
+    return min(anneal(lay, order, steps, 12 + k) for k in range(starts))[1]
+
+
+def exact(lay, order):
+    R, size, _, _ = lay.relax(order)
+    return int(np.count_nonzero(R & lay.cross)), int(size.sum())
 
 
 def main():
@@ -93,114 +377,10 @@ def main():
     ap.add_argument('--objdump', default='avr-objdump')
     ap.add_argument('--ld', default='avr-ld')
     ap.add_argument('--emulation', default='avr5')
+    ap.add_argument('--steps', type=int, default=100000, help='annealing steps per start')
+    ap.add_argument('--starts', type=int, default=6, help='annealing runs, the best kept')
     ap.add_argument('-o', '--out', required=True)
     a = ap.parse_args()
-
-    secs = sections_from_map(a.map)
-    # Units: the sections of one block move together (a block's extent in the first link is
-    # from its first section's start to its last one's end).
-    units = []  # [pattern, first start, starts, end]
-    index = {}
-    for name, start, size, path in secs:
-        b = block_of(name, path)
-        if b is None:
-            continue
-        if b in index:
-            u = units[index[b]]
-            u[2].append(start)
-            u[3] = max(u[3], start + size)
-        else:
-            index[b] = len(units)
-            units.append([b, start, [start], start + size])
-    if not units:
-        sys.exit('layout.py: no function sections in the map (link with -ffunction-sections)')
-    size = [u[3] - u[1] for u in units]
-    lo = [u[1] for u in units]
-
-    def unit_at(addr):
-        for k, u in enumerate(units):
-            if u[1] <= addr < u[3]:
-                return k
-        return None
-
-    edges = []  # (caller unit, offset in it, callee unit, offset in it)
-    for site, target in calls_from_elf(a.elf, a.objdump):
-        cu, tu = unit_at(site), unit_at(target)
-        if cu is None or tu is None or cu == tu:
-            continue
-        edges.append((cu, site - lo[cu], tu, target - lo[tu]))
-
-    by_unit = [[] for _ in units]
-    for e in edges:
-        by_unit[e[0]].append(e)
-        by_unit[e[2]].append(e)
-
-    if np is not None:
-        e_cu = np.array([e[0] for e in edges])
-        e_tu = np.array([e[2] for e in edges])
-        e_off = np.array([e[3] - e[1] - 2 for e in edges])
-        sizes = np.array(size)
-
-        def score(order):
-            pos = np.empty(len(size), dtype=np.int64)
-            o = np.array(order)
-            pos[o] = np.cumsum(sizes[o]) - sizes[o]
-            return int(np.count_nonzero(np.abs(pos[e_tu] - pos[e_cu] + e_off) <= REACH)), None
-    else:
-        def score(order):
-            pos = {}
-            at = 0
-            for k in order:
-                pos[k] = at
-                at += size[k]
-            return sum(1 for cu, co, tu, to in edges if abs(pos[tu] + to - (pos[cu] + co + 2)) <= REACH), None
-
-    # Start from today's order; move one unit at a time to the place that keeps the most calls
-    # in reach, until no move helps.
-    order = sorted(range(len(units)), key=lambda k: lo[k])
-    best, _ = score(order)
-    improved = True
-    rounds = 0
-    while improved and rounds < 8:
-        improved = False
-        rounds += 1
-        for k in sorted(range(len(units)), key=lambda k: -len(by_unit[k])):
-            if not by_unit[k]:
-                continue
-            rest = [u for u in order if u != k]
-            cand_best, cand_at = best, None
-            for at in range(len(rest) + 1):
-                s, _ = score(rest[:at] + [k] + rest[at:])
-                if s > cand_best:
-                    cand_best, cand_at = s, at
-            if cand_at is not None:
-                order = rest[:cand_at] + [k] + rest[cand_at:]
-                best = cand_best
-                improved = True
-    # Then annealing (a fixed seed: the same first link gives the same order): random moves of
-    # one unit or a run of a few, a worse order accepted with a probability that falls to zero;
-    # the best order seen is kept. (The moves above stop in a local optimum.)
-    rng = random.Random(12)
-    cur, cur_order = best, order
-    best_order = order
-    steps = 100000
-    for step in range(steps):
-        temp = max(0.05, 3.0 * (1.0 - step / steps))
-        o = cur_order[:]
-        i = rng.randrange(len(o))
-        n = rng.randint(1, 6)
-        seg = o[i:i + n]
-        del o[i:i + n]
-        j = rng.randrange(len(o) + 1)
-        o[j:j] = seg
-        s, _ = score(o)
-        if s >= cur or rng.random() < math.exp((s - cur) / temp):
-            cur, cur_order = s, o
-            if s > best:
-                best, best_order = s, o
-    order = best_order
-    before, _ = score(sorted(range(len(units)), key=lambda k: lo[k]))
-    total = len(edges)
 
     default = subprocess.run([a.ld, '--verbose', '-m' + a.emulation], capture_output=True, text=True,
                              check=True).stdout
@@ -211,14 +391,30 @@ def main():
     anchor = '    *(.text)\n    . = ALIGN(2);\n'
     if anchor not in script:
         sys.exit('layout.py: the default script has no `*(.text)` to anchor on')
-    listed = ''.join(
-        f'    {units[k][0]}\n' if units[k][0].startswith('*') else f'    *({units[k][0]})\n' for k in order)
+
+    if np is None:  # no order: the second link is the default one (bytes lost, nothing wrong)
+        with open(a.out, 'w') as f:
+            f.write('/* firmware/layout.py: numpy missing, the default order. */\n' + script)
+        print('layout.py: numpy not found: default order')
+        return
+
+    secs, text_end, globals_ = text_from_map(a.map)
+    insns, symbols = disassembly(a.elf, a.objdump)
+    lay = Layout(secs, text_end, globals_, insns, symbols)
+    first = [0] + list(range(2, lay.n)) + [1]
+    order = search(lay, first, a.steps, a.starts)
+    (before, size_before), (after, size_after) = exact(lay, first), exact(lay, order)
+    total = int(np.count_nonzero(lay.cross))
+
+    listed = ''.join(f'    {p}\n' for k in order[1:-1] for p in lay.patterns[k])
     script = script.replace(anchor, anchor + listed, 1)
+    note = (f'calls and jumps within reach {before} -> {after} of {total} ({lay.n - 2} units), '
+            f'.text {size_before} -> {size_after} B')
     with open(a.out, 'w') as f:
         f.write('/* Generated by firmware/layout.py from the first link: functions near their callees.\n'
-                f'   Calls and jumps within RCALL reach: {before} -> {best} of {total}. */\n')
+                f'   {note} (the relaxation replayed). */\n')
         f.write(script)
-    print(f'layout.py: calls and jumps within reach {before} -> {best} of {total} ({len(units)} units)')
+    print(f'layout.py: {note}')
 
 
 if __name__ == '__main__':
