@@ -10,6 +10,7 @@
 // the setpoint on a branch that cannot come back).
 #include <gtest/gtest.h>
 #include <cmath>
+#include <initializer_list>
 #include <vector>
 #include "sma_host/e2e_wire.hpp"
 #include "sma_host/metrics.hpp"
@@ -157,6 +158,20 @@ TEST(PreviewWrongModel, TheSinesTopIsContinuousInTheModel) {
   EXPECT_LE(hi - lo, 0.02) << lo << " .. " << hi;  // 10 ADC steps: ~5x what the model change itself moves
 }
 
+// A model a fraction of a fit's own 95 % intervals away from it: h x (1 + dh), T_AF + dT_AF.
+struct Near {
+  double dh, dT_AF;
+};
+
+// The multi-step's metrics on a model near a fit (the fit itself: Near{0, 0}).
+sma_host::Metrics steps_near(const sma::Params& fit, const sma::Effects& fx, const Near& n) {
+  sma::Params p = fit;
+  p.h *= 1.0 + n.dh;
+  p.T_AF += n.dT_AF;
+  const sma_host::RunSetup s = e2e_steps(p, fx);
+  return sma_host::step_metrics(sma_host::run_closed_loop<float>(s), s.reference.step_s);
+}
+
 // Issue 13's "a more exact model never tracks worse" needs tracking that moves continuously
 // with the model below what a fit resolves. The flow's fit and models a sixth to two thirds of
 // its own 95 % intervals away (h +-0.3 %, T_AF +-0.26 K): on each the wire rides a rise past the
@@ -168,18 +183,29 @@ TEST(PreviewWrongModel, TheSinesTopIsContinuousInTheModel) {
 // rode the 0.4 mm hold's rise and was re-approached again: 16-18 um and 14-15 um apart.)
 TEST(PreviewWrongModel, TheFirstHoldsReapproachDoesNotFlipOnAHundredthOfTheFit) {
   const sma::Params fit = sma_host::e2e_flow_fit();
-  const sma_host::Metrics at = sma_host::step_metrics(
-      sma_host::run_closed_loop<float>(e2e_steps(fit, sma_host::e2e_flow_fit_effects())), 25.0);
-  const struct {
-    double dh, dT_AF;
-  } near[] = {{0.0005, 0.0}, {0.001, 0.0}, {-0.002, 0.0}, {0.0, 0.05}};
-  for (const auto& n : near) {
-    sma::Params p = fit;
-    p.h *= 1.0 + n.dh;
-    p.T_AF += n.dT_AF;
-    sma_host::RunSetup s = e2e_steps(p, sma_host::e2e_flow_fit_effects());
-    const sma_host::Metrics m = sma_host::step_metrics(sma_host::run_closed_loop<float>(s), s.reference.step_s);
+  const sma::Effects fx = sma_host::e2e_flow_fit_effects();
+  const sma_host::Metrics at = steps_near(fit, fx, Near{0.0, 0.0});
+  for (const Near& n : {Near{0.0005, 0.0}, Near{0.001, 0.0}, Near{-0.002, 0.0}, Near{0.0, 0.05}}) {
+    const sma_host::Metrics m = steps_near(fit, fx, n);
     EXPECT_NEAR(m.wrong_way_before_mm, at.wrong_way_before_mm, 0.005) << n.dh << " " << n.dT_AF;
+    EXPECT_NEAR(m.rms_mm, at.rms_mm, 0.010) << n.dh << " " << n.dT_AF;
+  }
+}
+
+// The same on the fit without the wire's convection (sma_host::e2e_fit_without_convection): its
+// 0.8 mm hold is approached on the rise and held on the cooling branch, the model wire slides down
+// a cooling curve the wire does not follow (the offset takes the gap). Heating there only raises
+// the fraction (eq 4); in the plan it opens a new loop from the cap's peak (eqs 5-11), which the
+// model scores ~0.016 (0.1 mm)^2 better than waiting, the switch margin itself. Where it won (T_AF
+// -0.05 K), the wire was re-heated to the peak 9 s before the 0.5 mm step and left the hold 1.5 s
+// late (max 0.266 -> 0.309 mm). Over keys a fraction of the fit's own intervals, the run's max
+// within 5 ADC steps (10 um) of the fit's run, its RMS within the issue's 10 um.
+TEST(PreviewWrongModel, AHoldBeforeAMoveDownIsNotReheatedOnAHundredthOfTheFit) {
+  const sma::Params fit = sma_host::e2e_fit_without_convection();
+  const sma_host::Metrics at = steps_near(fit, sma::Effects(), Near{0.0, 0.0});
+  for (const Near& n : {Near{0.0, -0.05}, Near{0.0, -0.1}, Near{-0.0005, 0.0}, Near{0.0005, 0.0}}) {
+    const sma_host::Metrics m = steps_near(fit, sma::Effects(), n);
+    EXPECT_NEAR(m.max_mm, at.max_mm, 0.010) << n.dh << " " << n.dT_AF;
     EXPECT_NEAR(m.rms_mm, at.rms_mm, 0.010) << n.dh << " " << n.dT_AF;
   }
 }

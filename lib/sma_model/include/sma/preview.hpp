@@ -786,7 +786,7 @@ class PreviewCore {
       // re-heat of a wire on its rise opens a new loop with a rise of its own under model.md's
       // literal reading (plant B), which the model's return-point memory does not predict.
       switch_due_ = 0;
-      const bool wins = switch_at_[best_] != kNever && best_cost_ < natural_cost_ - switch_margin_;
+      const bool wins = switch_at_[best_] != kNever && best_cost_ < natural_cost_ - switch_margin_ && !idle_heat();
       if (SMA_PREVIEW_HOST_OPTIONS && commit_switch_ && wins) {
         const long due = static_cast<long>(switch_at_[best_] * grid_s_ / dt_ + 0.5) - elapsed_ticks_;
         if (due <= 0) switch_branch();
@@ -801,6 +801,15 @@ class PreviewCore {
     start_sim();
     return false;
   }
+
+  // A heating that cannot serve the reference: on a hold approached on the rise whose next move
+  // is down, the wire at it or above (not below it by more than reapproach_mm, the band in which
+  // a re-approached wire is back at its hold). Heating only raises the fraction (eq 4), so it
+  // moves the wire neither to the hold nor towards the move; what the plan sees in it is a new
+  // loop from the peak (eqs 5-11), which the model predicts where its cooling curve is not the
+  // wire's. Left to the switch margin, that verdict flips on a model change far below what a fit
+  // resolves, and the re-heat it buys holds the wire at its peak when the move comes.
+  bool idle_heat() const { return !heating_ && capped(ref_now_) && !(x_fast_ < ref_now_ - reapproach_); }
 
   // The best switch time between the candidates, in ticks from the plan's start: the vertex of
   // the parabola through the cheapest candidate's cost and its two neighbours' in time,
