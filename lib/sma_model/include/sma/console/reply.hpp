@@ -66,14 +66,15 @@ struct Reply {
       return;
     }
     if (dec > 6) dec = 6;
-    uint32_t scale = 1;
-    for (uint8_t k = 0; k < dec; ++k) scale *= 10u;
+    // 10^dec in floating point directly (exact: 10^6 < 2^24), no integer-to-float conversion.
+    double scale = 1.0;
+    for (uint8_t k = 0; k < dec; ++k) scale *= 10.0;
     if (x < 0.0) {
       x = -x;
       // "-0.0000" would read oddly: only print the sign if something non-zero follows.
-      if (x * static_cast<double>(scale) >= 0.5) put('-');
+      if (x * scale >= 0.5) put('-');
     }
-    const double scaled = x * static_cast<double>(scale) + 0.5;
+    const double scaled = x * scale + 0.5;
     if (!(scaled < 2.0e9)) {
       put_f(SMA_F("big"));
       return;
