@@ -4,6 +4,7 @@
 #define SMA_CONSOLE_REPLY_HPP
 
 #include "state.hpp"
+#include "../trunc_u32.hpp"
 
 namespace sma {
 namespace console {
@@ -79,7 +80,7 @@ struct Reply {
       put_f(SMA_F("big"));
       return;
     }
-    put_scaled(static_cast<uint32_t>(scaled), dec);
+    put_scaled(trunc_u32(scaled), dec);
   }
   // A short decimal, about 6-7 significant digits, trailing zeros trimmed: 0.000001, 0.2,
   // -4.8334, 50.2, 100000 (range bounds, and pget/pset echoes next to the exact float bits).
