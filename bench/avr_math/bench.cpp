@@ -179,6 +179,16 @@ uint8_t self_check() {
         sma::fixed_detail::raw_from_float_bits_portable(near_range)) {
       ++mismatches;
     }
+    // The truncating conversion (the Q16.16 image's float -> integer): every exponent, and 1..2^32.
+    if (sma::fixed_detail::trunc_u32_from_float_bits(ua) !=
+        sma::fixed_detail::trunc_u32_from_float_bits_portable(ua)) {
+      ++mismatches;
+    }
+    const uint32_t to_2_32 = (ua & 0x807FFFFFu) | ((127u + (ub & 31u)) << 23);  // e 127..158
+    if (sma::fixed_detail::trunc_u32_from_float_bits(to_2_32) !=
+        sma::fixed_detail::trunc_u32_from_float_bits_portable(to_2_32)) {
+      ++mismatches;
+    }
   }
   return static_cast<uint8_t>(mismatches > 255 ? 255 : mismatches);
 }

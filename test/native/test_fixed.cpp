@@ -13,6 +13,8 @@
 // cos_ramp and cos_ramp_inv are also checked to be non-decreasing over every input in [0, 1]
 // (the model relies on it) and mirror-symmetric bit for bit.
 // Each accuracy test prints the measured maximum error ("[ measured ]" lines).
+#include <limits>
+#include <cstring>
 #include <gtest/gtest.h>
 
 #include <math.h>
@@ -124,6 +126,33 @@ TEST(FixedConversion, DefaultConstructionIsTrivialAndValueInitializationIsZero) 
   new (&p) Pair();  // value-initialized: every member zero
   EXPECT_EQ(p.a.raw(), 0);
   EXPECT_EQ(p.b.raw(), 0);
+}
+
+// The Q16.16 image's float -> integer conversion (trunc_u32.hpp) by integer shifts: the cast's
+// value for 0 <= y < 2^32 (truncation toward zero), 0 below 1, for negative values and NaN.
+TEST(FixedConversion, TruncU32FromFloatBitsIsTheCastFromOneTo2Pow32) {
+  uint32_t checked = 0;
+  for (uint64_t b = 0; b < 0x4F800000ull; b += 977) {  // every exponent up to 2^32, mantissas spread
+    const uint32_t bits = static_cast<uint32_t>(b);
+    float y;
+    std::memcpy(&y, &bits, 4);
+    const uint32_t want = y < 1.0f ? 0u : static_cast<uint32_t>(y);
+    ASSERT_EQ(sma::fixed_detail::trunc_u32_from_float_bits_portable(bits), want) << y;
+    ++checked;
+  }
+  EXPECT_GT(checked, 1000000u);
+  const float edge[] = {1.0f, 1.5f, 2.0f, 8388607.5f, 8388608.0f, 16777215.0f, 16777216.0f,
+                        2147483648.0f, 4294967040.0f, 0.99999994f, 1999999999.5f};
+  for (float y : edge) {
+    uint32_t bits;
+    std::memcpy(&bits, &y, 4);
+    EXPECT_EQ(sma::fixed_detail::trunc_u32_from_float_bits_portable(bits), static_cast<uint32_t>(y)) << y;
+  }
+  for (float y : {0.0f, -0.0f, 0.5f, -1.0f, -3e9f, std::numeric_limits<float>::quiet_NaN()}) {
+    uint32_t bits;
+    std::memcpy(&bits, &y, 4);
+    EXPECT_EQ(sma::fixed_detail::trunc_u32_from_float_bits_portable(bits), 0u) << y;
+  }
 }
 
 TEST(FixedConversion, DoubleRoundsToNearestHalfAwayFromZero) {

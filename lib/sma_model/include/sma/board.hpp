@@ -52,6 +52,7 @@ inline void* operator new(size_t, void* place) noexcept { return place; }
 #include "sensor.hpp"
 #include "storage.hpp"
 #include "training.hpp"
+#include "trunc_u32.hpp"
 
 #define SMA_NOINLINE __attribute__((noinline))
 
@@ -704,7 +705,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     // plan->duration() with its slope-free parts folded (the built-in plan's peaks and holds).
     constexpr double kHolds_s = TrainingPlan().holds_s(), kRamps2_V = 2.0 * TrainingPlan().ramp_V();
     const double length_s = kHolds_s + kRamps2_V / plan->slope;
-    gen_.train.end_ticks = static_cast<uint32_t>(length_s * Rig::tick_hz()) + 1u;
+    gen_.train.end_ticks = trunc_u32(length_s * Rig::tick_hz()) + 1u;
     v_.x.training_ = true;
     v_.x.run_start_ = v_.x.ticks_;
     reply_.x.put(' ');

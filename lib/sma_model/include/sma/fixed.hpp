@@ -336,6 +336,17 @@ inline int32_t raw_from_float_bits_portable(uint32_t bits) {
 }
 
 #if defined(__AVR__)
+// The float conversions' shifts of the 32-bit operand %[x]: left by one bit; down by a byte (its
+// top byte known to be 0).
+#define SMA_ASM_X_LEFT1 "lsl  %A[x]\n\trol  %B[x]\n\trol  %C[x]\n\trol  %D[x]\n\t"
+#define SMA_ASM_X_DOWN8 "mov  %A[x], %B[x]\n\tmov  %B[x], %C[x]\n\tclr  %C[x]\n\t"
+// The ends: 8 -> %[x] = 0, then 9, the exit.
+#define SMA_ASM_X_ZERO_END "8:\n\tclr  %A[x]\n\tclr  %B[x]\n\tclr  %C[x]\n\tclr  %D[x]\n\t9:\n\t"
+// Up by %[e] bits (the flags of its last change: Z when 0), then to `done`.
+#define SMA_ASM_X_UP_LOOP(done) "2:\n\tbreq " done "\n\t" SMA_ASM_X_LEFT1 "dec  %[e]\n\trjmp 2b\n\t"
+#endif
+
+#if defined(__AVR__)
 // The same on the AVR in ~60 instructions (the C version: ~125, eight registers saved). The
 // right shift keeps the last bit it shifts out in the carry, which rounds; a byte move first
 // when at least 9 bits go.
@@ -363,20 +374,11 @@ __attribute__((noinline)) inline int32_t raw_from_float_bits(uint32_t bits) {
       "clr  %D[x]         \n\t"
       "subi %[e], 134     \n\t"  // |x| 2^16 = m 2^(e - 134)
       "brcs 3f            \n\t"
-      "2:                 \n\t"  // up by e - 134 <= 7
-      "breq 6f            \n\t"
-      "lsl  %A[x]         \n\t"
-      "rol  %B[x]         \n\t"
-      "rol  %C[x]         \n\t"
-      "rol  %D[x]         \n\t"
-      "dec  %[e]          \n\t"
-      "rjmp 2b            \n\t"
+      SMA_ASM_X_UP_LOOP("6f")  // up by e - 134 <= 7
       "3:                 \n\t"  // down by 134 - e <= 24
       "cpi  %[e], 0xF8    \n\t"  // 9 or more: a byte first
       "brsh 4f            \n\t"
-      "mov  %A[x], %B[x]  \n\t"
-      "mov  %B[x], %C[x]  \n\t"
-      "clr  %C[x]         \n\t"
+      SMA_ASM_X_DOWN8
       "subi %[e], 0xF8    \n\t"  // e += 8
       "rjmp 3b            \n\t"
       "4:                 \n\t"
@@ -411,17 +413,70 @@ __attribute__((noinline)) inline int32_t raw_from_float_bits(uint32_t bits) {
       "sbci %C[x], 0xFF   \n\t"
       "sbci %D[x], 0xFF   \n\t"
       "rjmp 9f            \n\t"
-      "8:                 \n\t"
-      "clr  %A[x]         \n\t"
-      "clr  %B[x]         \n\t"
-      "clr  %C[x]         \n\t"
-      "clr  %D[x]         \n\t"
-      "9:                 \n\t"
+      SMA_ASM_X_ZERO_END
       : [x] "+d"(bits), [e] "=&d"(e));
   return as_signed(bits);
 }
 #else
 inline int32_t raw_from_float_bits(uint32_t bits) { return raw_from_float_bits_portable(bits); }
+#endif
+
+// floor(y) of a float's bits, exactly as static_cast<uint32_t>(y) for 0 <= y < 2^32, and 0 for
+// y < 1 (negative and NaN included): the mantissa m with its implicit bit, y = m 2^(e - 150),
+// shifted by e - 150. Integer shifts only: the Q16.16 image then links no __fixunssfsi.
+inline uint32_t trunc_u32_from_float_bits_portable(uint32_t bits) {
+  const uint8_t e = static_cast<uint8_t>(hi16(bits) >> 7);  // biased exponent
+  if ((bits & kHalfQ32) != 0 || e < 127u) return 0;
+  uint32_t m = (bits & 0x7FFFFFu) | 0x800000u;
+  if (e < 150u) return m >> (150u - e);
+  for (uint8_t up = static_cast<uint8_t>(e - 150u); up != 0; --up) m <<= 1;  // y >= 2^32: undefined for the cast
+  return m;
+}
+
+#if defined(__AVR__)
+// The same on the AVR in ~35 instructions (the C version: ~80); bytes whole first when 8 or more
+// bits go down.
+__attribute__((noinline)) inline uint32_t trunc_u32_from_float_bits(uint32_t x) {
+  uint8_t e;
+  __asm__(
+      "mov  %[e], %C[x]   \n\t"
+      "lsl  %[e]          \n\t"
+      "mov  %[e], %D[x]   \n\t"
+      "rol  %[e]          \n\t"  // e = the biased exponent, C = the sign
+      "brcs 8f            \n\t"  // negative -> 0
+      "cpi  %[e], 127     \n\t"  // y < 1 -> 0
+      "brlo 8f            \n\t"
+      "ori  %C[x], 0x80   \n\t"  // m: the implicit bit
+      "clr  %D[x]         \n\t"
+      "subi %[e], 150     \n\t"  // y = m 2^(e - 150)
+      "brcs 3f            \n\t"
+      SMA_ASM_X_UP_LOOP("9f")  // up by e - 150
+      "3:                 \n\t"  // down by 150 - e <= 23
+      "cpi  %[e], 0xF9    \n\t"  // 8 or more: a byte first
+      "brsh 4f            \n\t"
+      SMA_ASM_X_DOWN8
+      "subi %[e], 0xF8    \n\t"  // e += 8
+      "brne 3b            \n\t"
+      "rjmp 9f            \n\t"
+      "4:                 \n\t"
+      "lsr  %C[x]         \n\t"  // (the top byte is 0 here)
+      "ror  %B[x]         \n\t"
+      "ror  %A[x]         \n\t"
+      "inc  %[e]          \n\t"
+      "brne 4b            \n\t"
+      "rjmp 9f            \n\t"
+      SMA_ASM_X_ZERO_END
+      : [x] "+d"(x), [e] "=&d"(e));
+  return x;
+}
+#else
+inline uint32_t trunc_u32_from_float_bits(uint32_t bits) { return trunc_u32_from_float_bits_portable(bits); }
+#endif
+#if defined(__AVR__)
+#undef SMA_ASM_X_LEFT1
+#undef SMA_ASM_X_DOWN8
+#undef SMA_ASM_X_UP_LOOP
+#undef SMA_ASM_X_ZERO_END
 #endif
 
 // raw / 2^16 as a float, exactly as static_cast<float>(raw) * 2^-16: the power-of-two scaling
@@ -972,9 +1027,15 @@ SMA_FIXED_ORDER_FN Fixed clamp(Fixed x, Fixed lo, Fixed hi) {
 }
 #undef SMA_FIXED_ORDER_FN
 
-// clamp(x, 0, 1) on the raw value, inline (the generic template became an out-of-line call of
-// ~100 AVR cycles for two integer compares).
-__attribute__((always_inline)) inline Fixed clamp01(Fixed x) {
+// clamp(x, 0, 1) on the raw value: two integer compares (the generic template's out-of-line call
+// cost ~100 AVR cycles). Out of line on the AVR, one copy for its two callers (Mechanics::fraction
+// in the tick, Hysteresis::reset): -18 B for ~+29 cycles.
+#if defined(__AVR__)
+__attribute__((noinline))
+#else
+__attribute__((always_inline))
+#endif
+inline Fixed clamp01(Fixed x) {
   return x.raw() <= 0 ? Fixed::from_raw(0) : x.raw() >= fixed_detail::kRawOne ? Fixed::from_raw(fixed_detail::kRawOne) : x;
 }
 

@@ -9,6 +9,7 @@
 
 #include <stdint.h>
 #include "scalar.hpp"
+#include "trunc_u32.hpp"
 
 namespace sma {
 
@@ -89,7 +90,7 @@ class ReferenceGen {
     // is below k / 2^33 turn (3 periods of the paper's sine: 2e-6 turn).
     // (A period shorter than the tick, or none, gives no tick path: 0.)
     const double turns = dt * inv_period_s_;
-    turns_per_tick_ = turns < 1.0 ? static_cast<uint32_t>(turns * 4294967296.0 + 0.5) : 0u;
+    turns_per_tick_ = turns < 1.0 ? trunc_u32(turns * 4294967296.0 + 0.5) : 0u;
   }
 
   // Reference at tick k of the run (t = k dt): the sine's phase from the tick count in integers
@@ -103,7 +104,7 @@ class ReferenceGen {
   T at(double t) const {
     switch (r_.kind) {
       case RefKind::MultiStep: {
-        long k = static_cast<long>(t * inv_step_s_);
+        long k = static_cast<long>(trunc_u32(t * inv_step_s_));  // (t >= 0)
         if (k < 0) k = 0;
         if (k >= r_.n_steps) k = r_.n_steps - 1;
         return from_double<T>(r_.step_mm[k]);
@@ -111,7 +112,7 @@ class ReferenceGen {
       case RefKind::Sine: {
         // Phase reduced to [0, 1) in double (float on AVR) so T never sees a large angle.
         const double cycles = t * inv_period_s_;
-        return sine_at(static_cast<uint32_t>((cycles - static_cast<double>(static_cast<long>(cycles))) * 4294967296.0));
+        return sine_at(trunc_u32((cycles - static_cast<double>(trunc_u32(cycles))) * 4294967296.0));
       }
       case RefKind::Trajectory: {
         if (r_.n_points == 0) return T(0);

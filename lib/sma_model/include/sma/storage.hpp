@@ -34,6 +34,7 @@
 #include "param_table_access.hpp"
 #include "params.hpp"
 #include "safety.hpp"  // SMA_F, flash_char
+#include "trunc_u32.hpp"
 
 namespace sma {
 namespace storage {
@@ -148,7 +149,7 @@ class Store {
 
   // Reads slot s's payload into (p, fx) (no validation).
   void read_set(uint8_t s, Params& p, Effects& fx) const {
-    for (uint8_t k = 0; k < kNumKeys; ++k) set_in(p, fx, k, read_value(s, k));
+    for (uint8_t k = 0; k < kNumKeys; ++k) set_in(p, fx, k, read_bits(s, k));
   }
 
   // The stored value of key k in slot s.
@@ -186,7 +187,7 @@ class Store {
     if (staging_ < 0 || k >= kNumKeys) return false;
     const uint16_t a = addr(static_cast<uint8_t>(staging_), k);
     if (k == kKeyLoops) {
-      e_.write(a, static_cast<uint8_t>(v));
+      e_.write(a, static_cast<uint8_t>(trunc_u32(v)));
       return true;
     }
     uint32_t u = float_bits(v);
@@ -248,12 +249,13 @@ class Store {
                                                   (e_.read(static_cast<uint16_t>(slot(s) + 4)) << 8));
     return crc == stored;
   }
-  static void set_in(Params& p, Effects& fx, uint8_t k, double v) {
+  // The stored bits of key k (the loop count's byte, read as an integer) into (p, fx).
+  static void set_in(Params& p, Effects& fx, uint8_t k, uint32_t bits) {
     if (k == kKeyLoops) {
-      p.n_loops = static_cast<uint8_t>(v);
+      p.n_loops = static_cast<uint8_t>(bits);
       return;
     }
-    if (double* d = value_ptr(p, fx, k)) *d = v;
+    if (double* d = value_ptr(p, fx, k)) *d = bits_float(bits);
   }
 
   E e_;

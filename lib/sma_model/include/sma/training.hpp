@@ -23,6 +23,7 @@
 
 #include <stdint.h>
 #include "scalar.hpp"
+#include "trunc_u32.hpp"
 
 namespace sma {
 
@@ -114,7 +115,7 @@ struct TrainingPlan {
     }
     // (t >= 0 here.)
     if (t < n_probes * probe_s) {
-      const uint8_t i = static_cast<uint8_t>(t / probe_s);
+      const uint8_t i = static_cast<uint8_t>(trunc_u32(t / probe_s));
       return probes[i < n_probes ? i : n_probes - 1];  // (i == n_probes only by rounding)
     }
     return 0.0;

@@ -6,6 +6,7 @@
 #include "../storage.hpp"
 #include "reply.hpp"
 #include "state.hpp"
+#include "../trunc_u32.hpp"
 
 namespace sma {
 namespace console {
@@ -46,9 +47,9 @@ inline void pget_line(Reply& r, uint8_t key, double v, uint32_t bits) {
   r.put_hex(bits, key == storage::kKeyLoops ? 2 : 8);
 }
 // pget with no active set: the default `v` as it would be stored (float32).
-inline void pget_default_line(Reply& r, uint8_t key, double v) {
+__attribute__((always_inline)) inline void pget_default_line(Reply& r, uint8_t key, double v) {
   if (key != storage::kKeyLoops) v = storage::bits_float(storage::float_bits(v));
-  pget_line(r, key, v, key == storage::kKeyLoops ? static_cast<uint32_t>(v) : storage::float_bits(v));
+  pget_line(r, key, v, key == storage::kKeyLoops ? trunc_u32(v) : storage::float_bits(v));
 }
 
 // pcommit refused by check() (storage::CheckValidator): `ERR <key>: <why>`, the message of the

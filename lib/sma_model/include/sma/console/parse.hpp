@@ -7,6 +7,7 @@
 #include "line_buffer.hpp"
 #include "reply.hpp"
 #include "state.hpp"
+#include "../trunc_u32.hpp"
 
 namespace sma {
 namespace console {
@@ -395,7 +396,7 @@ inline bool parse(const char* line, Command& cmd, Reply& reply, const Limits& li
     // The loop count must be a whole number; cast only once it is known to fit a uint8_t
     // (converting an out-of-range double is undefined behaviour: found by fuzz_console).
     const bool integer = !keyed || c.key != storage::kKeyLoops || !in_range ||
-                         v[k] == static_cast<double>(static_cast<uint8_t>(v[k]));
+                         v[k] == static_cast<double>(static_cast<uint8_t>(trunc_u32(v[k])));
     if (len == 0 || n != Num::Ok || !in_range || !integer) {
       if (keyed) {
         reply.clear();

@@ -4,6 +4,7 @@
 #define SMA_CONSOLE_REPLY_HPP
 
 #include "state.hpp"
+#include "../trunc_u32.hpp"
 
 namespace sma {
 namespace console {
@@ -66,19 +67,20 @@ struct Reply {
       return;
     }
     if (dec > 6) dec = 6;
-    uint32_t scale = 1;
-    for (uint8_t k = 0; k < dec; ++k) scale *= 10u;
+    // 10^dec in floating point directly (exact: 10^6 < 2^24), no integer-to-float conversion.
+    double scale = 1.0;
+    for (uint8_t k = 0; k < dec; ++k) scale *= 10.0;
     if (x < 0.0) {
       x = -x;
       // "-0.0000" would read oddly: only print the sign if something non-zero follows.
-      if (x * static_cast<double>(scale) >= 0.5) put('-');
+      if (x * scale >= 0.5) put('-');
     }
-    const double scaled = x * static_cast<double>(scale) + 0.5;
+    const double scaled = x * scale + 0.5;
     if (!(scaled < 2.0e9)) {
       put_f(SMA_F("big"));
       return;
     }
-    put_scaled(static_cast<uint32_t>(scaled), dec);
+    put_scaled(trunc_u32(scaled), dec);
   }
   // A short decimal, about 6-7 significant digits, trailing zeros trimmed: 0.000001, 0.2,
   // -4.8334, 50.2, 100000 (range bounds, and pget/pset echoes next to the exact float bits).
