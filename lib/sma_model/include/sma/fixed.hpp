@@ -1369,12 +1369,11 @@ constexpr uint16_t kRampR4 = 34742;                 // r4 in Q0.19
 // on the AVR the reference the benchmark checks the assembly against.
 inline uint32_t ramp_products_portable(uint16_t xm, uint16_t s, bool inverse) {
   const uint32_t sq = mul16(xm, xm);  // x^2 in Q0.32
-  // y^2 r4 in Q0.19 (inverse); w b2 in Q0.18 (haversine, Q14 * Q20 >> 16, rounded below).
-  const uint32_t p = mul16(hi16(sq), inverse ? kRampR4 : kHaversineB2);
   uint32_t v;
   uint16_t factor;
   uint8_t i = 0;  // the haversine's three products; the inverse's last one
   if (inverse) {
+    const uint32_t p = mul16(hi16(sq), kRampR4);                                         // y^2 r4, Q0.19
     const uint16_t t19 = static_cast<uint16_t>(kRampR2 + hi16(p));                      // Q0.19
     const uint16_t t18 = static_cast<uint16_t>(kRampR1 + (hi16(mul16(xm, t19)) >> 1));  // Q0.18
     v = kRampR0 + (mul16(xm, t18) >> 2);                                                 // Q0.32
@@ -1382,7 +1381,7 @@ inline uint32_t ramp_products_portable(uint16_t xm, uint16_t s, bool inverse) {
     i = 2;  // R sqrt(y)
   } else {
     v = sq;
-    factor = static_cast<uint16_t>(kHaversineB1 - hi16(p + 0x8000u));  // haversine_q18
+    factor = haversine_q18(hi16(sq));  // w = 4 x^2 in Q2.14 is x^2's top 16 bits
   }
   for (; i < 3; ++i) {
     v = mul32x16_portable(v, factor);
