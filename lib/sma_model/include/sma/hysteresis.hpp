@@ -19,6 +19,7 @@
 #ifndef SMA_HYSTERESIS_HPP
 #define SMA_HYSTERESIS_HPP
 
+#include "derived.hpp"
 #include "params.hpp"
 #include "scalar.hpp"
 
@@ -45,8 +46,8 @@ class PhaseCurves {
       : T_AS_(from_double<T>(p.T_AS)),
         T_MF_(from_double<T>(p.T_MF)),
         width_A_(from_double<T>(p.T_AF - p.T_AS)),
-        inv_width_A_(from_double<T>(1.0 / (p.T_AF - p.T_AS))),
-        inv_width_sf_(from_double<T>(1.0 / (p.T_f - p.T_s))),
+        inv_width_A_(reciprocal_as<T>(p.T_AF - p.T_AS)),
+        inv_width_sf_(reciprocal_as<T>(p.T_f - p.T_s)),
         T_MSf_(from_double<T>(p.T_MSf)),
         q_(from_double<T>(p.q)),
         e_(from_double<T>(p.e)),

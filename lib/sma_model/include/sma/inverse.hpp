@@ -22,6 +22,7 @@
 #ifndef SMA_INVERSE_HPP
 #define SMA_INVERSE_HPP
 
+#include "derived.hpp"
 #include "effects.hpp"
 #include "hysteresis.hpp"
 #include "mechanics.hpp"
@@ -57,10 +58,10 @@ class InverseModel {
         memory_(curves_, from_double<T>(p.T_amb), T(0)),
         wire_step_(thermal_, p, dt, fx),
         v_max_(from_double<T>(v_max)),
-        inv_dt_(from_double<T>(1.0 / dt)),
+        inv_dt_(reciprocal_as<T>(dt)),
         alpha_(from_double<T>(1.0 - decay_factor(dt / cfg.rate_filter_s))),
-        inv_tau_(from_double<T>(1.0 / cfg.rate_filter_s)),
-        inv_track_(from_double<T>(1.0 / cfg.track_s)),
+        inv_tau_(reciprocal_as<T>(cfg.rate_filter_s)),
+        inv_track_(reciprocal_as<T>(cfg.track_s)),
         deadband_(from_double<T>(cfg.deadband_mm)) {
     reset(from_double<T>(p.T_amb), T(0));
   }

@@ -8,6 +8,7 @@
 #ifndef SMA_MECHANICS_HPP
 #define SMA_MECHANICS_HPP
 
+#include "derived.hpp"
 #include "effects.hpp"
 #include "params.hpp"
 #include "scalar.hpp"
@@ -43,7 +44,7 @@ struct Mechanics : Expansion<T> {
   T inv_g;  // 1 / g
 
   explicit Mechanics(const Params& p, const Effects& fx = Effects())
-      : Expansion<T>(p, fx), g(from_double<T>(p.g)), inv_g(from_double<T>(1.0 / p.g)) {}
+      : Expansion<T>(p, fx), g(from_double<T>(p.g)), inv_g(reciprocal_as<T>(p.g)) {}
 
   T displacement(T eps) const { return g * eps; }  // eq 12, wire at ambient
   // Eq 12 for a wire at temperature Tw.

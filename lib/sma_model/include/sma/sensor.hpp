@@ -15,6 +15,7 @@
 #ifndef SMA_SENSOR_HPP
 #define SMA_SENSOR_HPP
 
+#include "derived.hpp"
 #include "effects.hpp"
 #include "hysteresis.hpp"
 #include "mechanics.hpp"
@@ -29,7 +30,7 @@ class SensorPredictor {
   SensorPredictor(const PhaseCurves<T>& curves, const Params& p, const Effects& fx, double dt)
       : walker_(curves, from_double<T>(p.T_amb + fx.ambient_offset_K), T(0)),
         mech_(p, fx),
-        inv_gain_(from_double<T>(1.0 / fx.sensor_gain)),
+        inv_gain_(reciprocal_as<T>(fx.sensor_gain)),
         offset_(from_double<T>(fx.sensor_offset_mm)),
         a_(from_double<T>(1.0 - decay_factor(dt / (fx.sensor_lag_s + fx.sensor_delay_s + 1e-9)))),
         path_(fx.sensor_lag_s + fx.sensor_delay_s > 0.0             ? Path::Predicted

@@ -8,6 +8,7 @@
 #ifndef SMA_THERMAL_HPP
 #define SMA_THERMAL_HPP
 
+#include "derived.hpp"
 #include "effects.hpp"
 #include "params.hpp"
 #include "scalar.hpp"
@@ -29,10 +30,10 @@ struct Thermal {
 
   explicit Thermal(const Params& p, const Effects& fx = Effects())
       : C(from_double<T>(p.heat_capacity())),
-        inv_C(from_double<T>(1.0 / p.heat_capacity())),
+        inv_C(reciprocal_as<T>(p.heat_capacity())),
         G(from_double<T>(p.conductance())),
         R(from_double<T>(p.R)),
-        inv_R(from_double<T>(1.0 / p.R)),
+        inv_R(reciprocal_as<T>(p.R)),
         T_a(from_double<T>(p.T_amb + fx.ambient_offset_K)),
         beta(from_double<T>(fx.convection_beta_per_K)),
         k_R(from_double<T>(fx.resistance_k)),

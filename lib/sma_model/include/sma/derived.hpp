@@ -1,0 +1,28 @@
+// The models' derived constants, computed from the Params in double (float on the AVR) and
+// converted to the model's scalar once, in their constructors (params.hpp: d0 = 5e-4 m is not
+// even representable in Q16.16). The patterns that recur across the constructors are functions
+// here, out of line on the AVR: one copy of the soft-float call sequence and the conversion
+// instead of one per constant (the Uno's flash). The same operations in the same order as
+// written inline, so the values are the same bits.
+#ifndef SMA_DERIVED_HPP
+#define SMA_DERIVED_HPP
+
+#include "scalar.hpp"
+
+#if defined(__AVR__)
+#define SMA_DERIVED_OUT_OF_LINE __attribute__((noinline))
+#else
+#define SMA_DERIVED_OUT_OF_LINE
+#endif
+
+namespace sma {
+
+// 1 / x as the model's scalar: the reciprocals that let the tick multiply instead of divide.
+template <class T>
+SMA_DERIVED_OUT_OF_LINE T reciprocal_as(double x) {
+  return from_double<T>(1.0 / x);
+}
+
+}  // namespace sma
+
+#endif  // SMA_DERIVED_HPP
