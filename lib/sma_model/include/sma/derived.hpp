@@ -23,6 +23,13 @@ SMA_DERIVED_OUT_OF_LINE T reciprocal_as(double x) {
   return from_double<T>(1.0 / x);
 }
 
+// 1 - exp(-dt / tau) as the model's scalar: the gain of a first-order low-pass with time
+// constant tau sampled every dt (y += gain (x - y)).
+template <class T>
+SMA_DERIVED_OUT_OF_LINE T low_pass_gain_as(double dt, double tau) {
+  return from_double<T>(1.0 - decay_factor(dt / tau));
+}
+
 }  // namespace sma
 
 #endif  // SMA_DERIVED_HPP

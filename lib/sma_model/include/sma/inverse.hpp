@@ -59,7 +59,7 @@ class InverseModel {
         wire_step_(thermal_, p, dt, fx),
         v_max_(from_double<T>(v_max)),
         inv_dt_(reciprocal_as<T>(dt)),
-        alpha_(from_double<T>(1.0 - decay_factor(dt / cfg.rate_filter_s))),
+        alpha_(low_pass_gain_as<T>(dt, cfg.rate_filter_s)),
         inv_tau_(reciprocal_as<T>(cfg.rate_filter_s)),
         inv_track_(reciprocal_as<T>(cfg.track_s)),
         deadband_(from_double<T>(cfg.deadband_mm)) {
