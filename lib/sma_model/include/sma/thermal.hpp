@@ -29,9 +29,12 @@ struct Thermal {
   bool plain;  // eq 1 is linear (at most an ambient offset): lets the tick skip work
 
   explicit Thermal(const Params& p, const Effects& fx = Effects())
-      : C(from_double<T>(p.heat_capacity())),
-        inv_C(reciprocal_as<T>(p.heat_capacity())),
-        G(from_double<T>(p.conductance())),
+      : Thermal(p, fx, p.heat_capacity(), p.conductance()) {}
+  // With C_th and G computed by the caller (the inverse model: once for this and its WireStep).
+  Thermal(const Params& p, const Effects& fx, double C_th, double G_th)
+      : C(from_double<T>(C_th)),
+        inv_C(reciprocal_as<T>(C_th)),
+        G(from_double<T>(G_th)),
         R(from_double<T>(p.R)),
         inv_R(reciprocal_as<T>(p.R)),
         T_a(from_double<T>(p.T_amb + fx.ambient_offset_K)),
@@ -85,11 +88,14 @@ struct Thermal {
 template <class T>
 struct ThermalStep {
   T a, b, T_a;
-  ThermalStep(const Params& p, double dt, const Effects& fx = Effects()) {
-    const double tau = p.heat_capacity() / p.conductance();
+  ThermalStep(const Params& p, double dt, const Effects& fx = Effects())
+      : ThermalStep(p, dt, fx, p.heat_capacity(), p.conductance()) {}
+  // With C_th and G computed by the caller (Thermal's).
+  ThermalStep(const Params& p, double dt, const Effects& fx, double C_th, double G_th) {
+    const double tau = C_th / G_th;
     const double ad = decay_factor(dt / tau);
     a = from_double<T>(ad);
-    b = from_double<T>((1.0 - ad) / (p.R * p.conductance()));
+    b = from_double<T>((1.0 - ad) / (p.R * G_th));
     T_a = from_double<T>(p.T_amb + fx.ambient_offset_K);
   }
   T operator()(T Tw, T V) const { return passive(Tw) + heat(V); }
@@ -108,7 +114,10 @@ struct WireStep {
   T dt;
 
   WireStep(const Thermal<T>& thermal, const Params& p, double dt_s, const Effects& fx)
-      : th(&thermal), exact(p, dt_s, fx), dt(from_double<T>(dt_s)) {}
+      : WireStep(thermal, p, dt_s, fx, p.heat_capacity(), p.conductance()) {}
+  // With the C_th and G that `thermal` was built from.
+  WireStep(const Thermal<T>& thermal, const Params& p, double dt_s, const Effects& fx, double C_th, double G_th)
+      : th(&thermal), exact(p, dt_s, fx, C_th, G_th), dt(from_double<T>(dt_s)) {}
 
   // eps: austenite fraction (phase-dependent resistance); deps_dt: its rate (latent heat).
   T operator()(T Tw, T V, T eps = T(0), T deps_dt = T(0)) const {
