@@ -60,7 +60,7 @@ class InverseModel {
         thermal_(p, fx, C_th, G_th),
         mech_(p, fx),
         memory_(curves_, from_double<T>(p.T_amb), T(0)),
-        wire_step_(thermal_, p, dt, fx, C_th, G_th),
+        wire_step_(thermal_, p, dt, C_th, G_th),
         v_max_(from_double<T>(v_max)),
         inv_dt_(reciprocal_as<T>(dt)),
         alpha_(low_pass_gain_as<T>(dt, cfg.rate_filter_s)),

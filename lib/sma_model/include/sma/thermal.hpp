@@ -89,14 +89,13 @@ template <class T>
 struct ThermalStep {
   T a, b, T_a;
   ThermalStep(const Params& p, double dt, const Effects& fx = Effects())
-      : ThermalStep(p, dt, fx, p.heat_capacity(), p.conductance()) {}
-  // With C_th and G computed by the caller (Thermal's).
-  ThermalStep(const Params& p, double dt, const Effects& fx, double C_th, double G_th) {
+      : ThermalStep(p, dt, p.heat_capacity(), p.conductance(), from_double<T>(p.T_amb + fx.ambient_offset_K)) {}
+  // With C_th, G and the true ambient computed by the caller (Thermal's).
+  ThermalStep(const Params& p, double dt, double C_th, double G_th, T T_amb_true) : T_a(T_amb_true) {
     const double tau = C_th / G_th;
     const double ad = decay_factor(dt / tau);
     a = from_double<T>(ad);
     b = from_double<T>((1.0 - ad) / (p.R * G_th));
-    T_a = from_double<T>(p.T_amb + fx.ambient_offset_K);
   }
   T operator()(T Tw, T V) const { return passive(Tw) + heat(V); }
   T passive(T Tw) const { return T_a + a * (Tw - T_a); }  // no power
@@ -114,10 +113,10 @@ struct WireStep {
   T dt;
 
   WireStep(const Thermal<T>& thermal, const Params& p, double dt_s, const Effects& fx)
-      : WireStep(thermal, p, dt_s, fx, p.heat_capacity(), p.conductance()) {}
-  // With the C_th and G that `thermal` was built from.
-  WireStep(const Thermal<T>& thermal, const Params& p, double dt_s, const Effects& fx, double C_th, double G_th)
-      : th(&thermal), exact(p, dt_s, fx, C_th, G_th), dt(from_double<T>(dt_s)) {}
+      : th(&thermal), exact(p, dt_s, fx), dt(from_double<T>(dt_s)) {}
+  // With the C_th and G that `thermal` was built from (its true ambient too).
+  WireStep(const Thermal<T>& thermal, const Params& p, double dt_s, double C_th, double G_th)
+      : th(&thermal), exact(p, dt_s, C_th, G_th, thermal.T_a), dt(from_double<T>(dt_s)) {}
 
   // eps: austenite fraction (phase-dependent resistance); deps_dt: its rate (latent heat).
   T operator()(T Tw, T V, T eps = T(0), T deps_dt = T(0)) const {
