@@ -45,13 +45,14 @@ class PhaseCurves {
   explicit PhaseCurves(const Params& p)
       : T_AS_(from_double<T>(p.T_AS)),
         T_MF_(from_double<T>(p.T_MF)),
-        width_A_(from_double<T>(p.T_AF - p.T_AS)),
-        inv_width_A_(reciprocal_as<T>(p.T_AF - p.T_AS)),
         inv_width_sf_(reciprocal_as<T>(p.T_f - p.T_s)),
         T_MSf_(from_double<T>(p.T_MSf)),
         q_(from_double<T>(p.q)),
         e_(from_double<T>(p.e)),
         n_knots_(static_cast<uint8_t>(p.n_loops + 2)) {
+    const double width_A = p.T_AF - p.T_AS;  // once for the width and its reciprocal
+    width_A_ = from_double<T>(width_A);
+    inv_width_A_ = reciprocal_as<T>(width_A);
 #if SMA_REHEAT_READINGS
     every_peak_ = p.reheat == Reheat::new_loop;
 #endif
