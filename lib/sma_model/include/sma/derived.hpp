@@ -7,6 +7,7 @@
 #ifndef SMA_DERIVED_HPP
 #define SMA_DERIVED_HPP
 
+#include "fixed.hpp"
 #include "scalar.hpp"
 
 #if defined(__AVR__)
@@ -29,6 +30,20 @@ template <class T>
 SMA_DERIVED_OUT_OF_LINE T low_pass_gain_as(double dt, double tau) {
   return from_double<T>(1.0 - decay_factor(dt / tau));
 }
+
+// A stored number (a Params, Effects or config field) as the model's scalar. Q16.16 on the
+// AVR: out of line, by reference, so that a call site passes the field's address instead of
+// loading its four bytes (the conversion is a call there anyway).
+template <class T>
+inline T from_field(const double& x) {
+  return from_double<T>(x);
+}
+#if defined(__AVR__)
+template <>
+__attribute__((noinline)) inline Fixed from_field<Fixed>(const double& x) {
+  return from_double<Fixed>(x);
+}
+#endif
 
 }  // namespace sma
 

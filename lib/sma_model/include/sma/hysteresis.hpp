@@ -43,12 +43,12 @@ template <class T>
 class PhaseCurves {
  public:
   explicit PhaseCurves(const Params& p)
-      : T_AS_(from_double<T>(p.T_AS)),
-        T_MF_(from_double<T>(p.T_MF)),
+      : T_AS_(from_field<T>(p.T_AS)),
+        T_MF_(from_field<T>(p.T_MF)),
         inv_width_sf_(reciprocal_as<T>(p.T_f - p.T_s)),
-        T_MSf_(from_double<T>(p.T_MSf)),
-        q_(from_double<T>(p.q)),
-        e_(from_double<T>(p.e)),
+        T_MSf_(from_field<T>(p.T_MSf)),
+        q_(from_field<T>(p.q)),
+        e_(from_field<T>(p.e)),
         n_knots_(static_cast<uint8_t>(p.n_loops + 2)) {
     const double width_A = p.T_AF - p.T_AS;  // once for the width and its reciprocal
     width_A_ = from_double<T>(width_A);

@@ -66,7 +66,7 @@ class InverseModel {
         alpha_(low_pass_gain_as<T>(dt, cfg.rate_filter_s)),
         inv_tau_(reciprocal_as<T>(cfg.rate_filter_s)),
         inv_track_(reciprocal_as<T>(cfg.track_s)),
-        deadband_(from_double<T>(cfg.deadband_mm)) {
+        deadband_(from_field<T>(cfg.deadband_mm)) {
     reset(from_double<T>(p.T_amb), T(0));
   }
 

@@ -44,7 +44,7 @@ struct Mechanics : Expansion<T> {
   T inv_g;  // 1 / g
 
   explicit Mechanics(const Params& p, const Effects& fx = Effects())
-      : Expansion<T>(p, fx), g(from_double<T>(p.g)), inv_g(reciprocal_as<T>(p.g)) {}
+      : Expansion<T>(p, fx), g(from_field<T>(p.g)), inv_g(reciprocal_as<T>(p.g)) {}
 
   T displacement(T eps) const { return g * eps; }  // eq 12, wire at ambient
   // Eq 12 for a wire at temperature Tw.

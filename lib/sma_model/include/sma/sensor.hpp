@@ -31,7 +31,7 @@ class SensorPredictor {
       : walker_(curves, from_double<T>(p.T_amb + fx.ambient_offset_K), T(0)),
         mech_(p, fx),
         inv_gain_(reciprocal_as<T>(fx.sensor_gain)),
-        offset_(from_double<T>(fx.sensor_offset_mm)),
+        offset_(from_field<T>(fx.sensor_offset_mm)),
         a_(low_pass_gain_as<T>(dt, fx.sensor_lag_s + fx.sensor_delay_s + 1e-9)),
         path_(fx.sensor_lag_s + fx.sensor_delay_s > 0.0             ? Path::Predicted
               : fx.sensor_gain != 1.0 || fx.sensor_offset_mm != 0.0 ? Path::Calibrated

@@ -35,12 +35,12 @@ struct Thermal {
       : C(from_double<T>(C_th)),
         inv_C(reciprocal_as<T>(C_th)),
         G(from_double<T>(G_th)),
-        R(from_double<T>(p.R)),
+        R(from_field<T>(p.R)),
         inv_R(reciprocal_as<T>(p.R)),
         T_a(from_double<T>(p.T_amb + fx.ambient_offset_K)),
-        beta(from_double<T>(fx.convection_beta_per_K)),
-        k_R(from_double<T>(fx.resistance_k)),
-        L(from_double<T>(fx.latent_heat_J)),
+        beta(from_field<T>(fx.convection_beta_per_K)),
+        k_R(from_field<T>(fx.resistance_k)),
+        L(from_field<T>(fx.latent_heat_J)),
         plain(!fx.nonlinear_thermal()) {}
 
   // Electrical power into the wire, V^2 / R(eps).
