@@ -59,7 +59,7 @@ class InverseModel {
       : curves_(p),
         thermal_(p, fx, C_th, G_th),
         mech_(p, fx),
-        memory_(curves_, from_double<T>(p.T_amb), T(0)),
+        memory_(curves_, from_field<T>(p.T_amb), T(0)),
         wire_step_(thermal_, p, dt, C_th, G_th),
         v_max_(from_double<T>(v_max)),
         inv_dt_(reciprocal_as<T>(dt)),
@@ -67,7 +67,7 @@ class InverseModel {
         inv_tau_(reciprocal_as<T>(cfg.rate_filter_s)),
         inv_track_(reciprocal_as<T>(cfg.track_s)),
         deadband_(from_field<T>(cfg.deadband_mm)) {
-    reset(from_double<T>(p.T_amb), T(0));
+    reset(from_field<T>(p.T_amb), T(0));
   }
 
   // Restart at rest: wire at T0 with fraction eps0, reference at its displacement.
