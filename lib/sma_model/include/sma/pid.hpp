@@ -13,6 +13,7 @@
 #ifndef SMA_PID_HPP
 #define SMA_PID_HPP
 
+#include "derived.hpp"
 #include "scalar.hpp"
 #include "codegen.hpp"
 
@@ -43,7 +44,7 @@ class Pid {
 
   // New gains keep the current output (bumpless): the integrator absorbs the change of P.
   void set_gains(const PidGains& gains, double dt) {
-    const T kp_new = from_double<T>(gains.kp);
+    const T kp_new = from_field<T>(gains.kp);
     integral_ = integral_ + (kp_ - kp_new) * e_prev_;
     kp_ = kp_new;
     ki_dt_ = from_double<T>(gains.ki * dt);
