@@ -45,6 +45,16 @@ __attribute__((noinline)) inline Fixed from_field<Fixed>(const double& x) {
 }
 #endif
 
+// a != 0 || b != 0 || c != 0 (NaN is not 0): which effects are on. AVR: one test of the three
+// bit patterns without their signs (+-0 are the only zeros) instead of three soft-float compares.
+inline bool any_nonzero(double a, double b, double c) {
+#if defined(__AVR__)
+  return ((float_bits(a) | float_bits(b) | float_bits(c)) & 0x7FFFFFFFu) != 0;
+#else
+  return a != 0.0 || b != 0.0 || c != 0.0;
+#endif
+}
+
 }  // namespace sma
 
 #endif  // SMA_DERIVED_HPP

@@ -19,6 +19,7 @@
 #endif
 #endif
 
+#include "derived.hpp"
 #include "param_table.hpp"
 
 namespace sma {
@@ -49,7 +50,7 @@ struct Effects {
   bool thermal_active() const { return ambient_offset_K != 0.0 || nonlinear_thermal(); }
   // Effects that make eq 1 non-linear (an ambient offset only shifts T_a).
   bool nonlinear_thermal() const {
-    return convection_beta_per_K != 0.0 || resistance_k != 0.0 || latent_heat_J != 0.0;
+    return any_nonzero(convection_beta_per_K, resistance_k, latent_heat_J);
   }
   // The first effect outside its range of the parameter table (param_table.hpp), or ok().
   param::Violation check() const;
