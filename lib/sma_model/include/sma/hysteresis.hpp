@@ -64,10 +64,6 @@ class PhaseCurves {
       set_knot(static_cast<uint8_t>(k + 1), p.loops[k].T_i, p.loops[k].T_i - p.loops[k].T_ii,
                p.loops[k].j);
     set_knot(static_cast<uint8_t>(p.n_loops + 1), p.T_f, 0.0, 0.0);
-    // 1 / width of each segment: a reversal interpolates without dividing. An empty or
-    // reversed segment is never entered (rise_at), whatever its reciprocal.
-    for (uint8_t k = 0; k + 1 < n_knots_; ++k)
-      knot_inv_width_[k] = T(1) / (knot_T_[k + 1] - knot_T_[k]);
   }
 
   // Eq 2: austenite fraction on the major heating curve.
@@ -183,10 +179,14 @@ class PhaseCurves {
     }
     return q_ * (known ? eh_i : eps_heat(T_i)) + e_;  // eq 10
   }
+  // Knot k, set in order from 0 (the constructor).
   void set_knot(uint8_t k, double Ti, double span, double j) {
     knot_T_[k] = from_double<T>(Ti);
     knot_span_[k] = from_double<T>(span);
     knot_j_[k] = from_double<T>(j);
+    // 1 / width of the segment that ends here: a reversal interpolates without dividing. An
+    // empty or reversed segment is never entered (rise_at), whatever its reciprocal.
+    if (k > 0) knot_inv_width_[k - 1] = T(1) / (knot_T_[k] - knot_T_[k - 1]);
   }
   // j_i and T_i - T_ii between the identified loops: piecewise-linear in T_i, zero at and
   // outside T_s, T_f (model.md [choice]).
