@@ -543,7 +543,8 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     controller_config(cfg);
     new (&models_.m.ctl) Ctl(p, fx, *cfg, CheckedConfig());
     if (Rig::compensate())
-      new (&models_.m.sensor) SensorPredictor<T>(ctl().inverse().curves(), p, fx, 1.0 / Rig::tick_hz());
+      new (&models_.m.sensor)
+          SensorPredictor<T>(ctl().inverse().curves(), p, fx, 1.0 / Rig::tick_hz(), ctl().inverse().thermal().T_a);
     if (kPreview) {
       preview().build(ctl().inverse().curves(), ctl().inverse().thermal(), p, fx, preview_config(), ctl().valid());
       preview().set_cool_weight(state_.s.cool_weight);

@@ -28,7 +28,10 @@ template <class T>
 class SensorPredictor {
  public:
   SensorPredictor(const PhaseCurves<T>& curves, const Params& p, const Effects& fx, double dt)
-      : walker_(curves, from_double<T>(p.T_amb + fx.ambient_offset_K), T(0)),
+      : SensorPredictor(curves, p, fx, dt, from_double<T>(p.T_amb + fx.ambient_offset_K)) {}
+  // With the true ambient T_amb + ambient offset as the scalar (the controller's thermal model has it).
+  SensorPredictor(const PhaseCurves<T>& curves, const Params& p, const Effects& fx, double dt, T T_amb_true)
+      : walker_(curves, T_amb_true, T(0)),
         mech_(p, fx),
         inv_gain_(reciprocal_as<T>(fx.sensor_gain)),
         offset_(from_field<T>(fx.sensor_offset_mm)),
