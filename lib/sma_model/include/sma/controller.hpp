@@ -140,8 +140,8 @@ class Controller {
       : cfg_(cfg),
         inverse_(p, fx, cfg.inverse, cfg.dt, cfg.v_max),  // the controller's tick and V_max
         pid_(cfg.gains, cfg.dt),
-        T_wire_(from_double<T>(p.T_amb + fx.ambient_offset_K)),
-        v_max_(from_double<T>(cfg.v_max)),
+        T_wire_(inverse_.thermal().T_a),  // the true ambient, converted once
+        v_max_(inverse_.v_max()),  // cfg.v_max, converted once
         valid_(cfg_ok && p.check() == nullptr && fx.check() == nullptr) {}
 
   // The voltage that holds the estimated wire temperature (eq 17, dT/dt = 0), at the measured

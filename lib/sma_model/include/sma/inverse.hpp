@@ -178,6 +178,7 @@ class InverseModel {
   const Mechanics<T>& mechanics() const { return mech_; }
   // Eq 1 over one tick (the controller's temperature estimate uses the same).
   const WireStep<T>& wire_step() const { return wire_step_; }
+  T v_max() const { return v_max_; }
   const PhaseCurves<T>& curves() const { return curves_; }
 
   InverseModel(const InverseModel&) = delete;  // memory_ points into curves_
