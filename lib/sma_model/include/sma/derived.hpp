@@ -45,11 +45,15 @@ __attribute__((noinline)) inline Fixed from_field<Fixed>(const double& x) {
 }
 #endif
 
-// a != 0 || b != 0 || c != 0 (NaN is not 0): which effects are on. AVR: one test of the three
-// bit patterns without their signs (+-0 are the only zeros) instead of three soft-float compares.
+// a != 0 || b != 0 || c != 0 for floats (NaN is not 0), by one test of the three bit patterns
+// without their signs: +-0 are the only floats equal to 0.
+inline bool any_nonzero_float(float a, float b, float c) {
+  return ((float_bits(a) | float_bits(b) | float_bits(c)) & 0x7FFFFFFFu) != 0;
+}
+// Which effects are on. AVR (double is float): the bit test instead of three soft-float compares.
 inline bool any_nonzero(double a, double b, double c) {
 #if defined(__AVR__)
-  return ((float_bits(a) | float_bits(b) | float_bits(c)) & 0x7FFFFFFFu) != 0;
+  return any_nonzero_float(a, b, c);
 #else
   return a != 0.0 || b != 0.0 || c != 0.0;
 #endif
