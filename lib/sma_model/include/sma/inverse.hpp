@@ -51,17 +51,17 @@ class InverseModel {
   // With the tick and V_max given apart (the controller's: its config has them once). The config
   // by reference, not a modified copy: on the AVR a copy sat on the frame that builds the
   // controller while it builds the loop memory (the firmware's deepest stack, Q16.16).
-  InverseModel(const Params& p, const Effects& fx, const InverseConfig& cfg, double dt, double v_max)
+  InverseModel(const Params& p, const Effects& fx, const InverseConfig& cfg, double dt, const double& v_max)
       : InverseModel(p, fx, cfg, dt, v_max, p.heat_capacity(), p.conductance()) {}
   // With C_th and G computed once for the thermal model and its wire step.
-  InverseModel(const Params& p, const Effects& fx, const InverseConfig& cfg, double dt, double v_max, double C_th,
-               double G_th)
+  InverseModel(const Params& p, const Effects& fx, const InverseConfig& cfg, double dt, const double& v_max,
+               double C_th, double G_th)
       : curves_(p),
         thermal_(p, fx, C_th, G_th),
         mech_(p, fx),
         memory_(curves_, from_field<T>(p.T_amb), T(0)),
         wire_step_(thermal_, p, dt, C_th, G_th),
-        v_max_(from_double<T>(v_max)),
+        v_max_(from_field<T>(v_max)),
         inv_dt_(reciprocal_as<T>(dt)),
         alpha_(low_pass_gain_as<T>(dt, cfg.rate_filter_s)),
         inv_tau_(reciprocal_as<T>(cfg.rate_filter_s)),
