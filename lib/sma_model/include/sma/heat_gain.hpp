@@ -164,12 +164,6 @@ class HeatLossObserver {
     kc_ = (k_ - T(1)) * c_;
   }
 
-  // The gain moved by dk (clamped to the plausible range), e.g. by a probe of the hold's balance.
-  void adjust(T dk) {
-    k_ = clamp(k_ + dk, k_lo_, k_hi_);
-    kc_ = (k_ - T(1)) * c_;
-  }
-
   T gain() const { return k_; }
   T sensitivity() const { return S_; }  // dT/dk along the model wire's path, K
   // (k^ - 1) G dt / C: the model wire's extra loss per tick and kelvin above ambient.

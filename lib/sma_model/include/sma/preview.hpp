@@ -481,53 +481,9 @@ class PreviewCore {
       above_ticks_ = 0;
       reapproach_due_ = true;
     }
-    if (SMA_PREVIEW_HEAT_LOSS && observing()) probe_hold(ref, moving);
     // At rest: the wire moves < 2 um in 0.4 s, the model wire < 2 um/s.
     shift_due_ = shift_gain_ > T(0) && held_ticks_ > shift_after_ && resting && est_.heating() &&
                  abs(deps_ * mech_.g) < T(0.002);
-  }
-
-  // (e') Probe of a hold's heat balance (variant, not kept: docs/control.md section 30). In a
-  // hold on the heating branch, the model wire at rest, the wire above the hold and moving up:
-  // either it rides the rise of a peak it passed (eqs 5-6: it cools, its heat loss is higher
-  // than the model wire's at this voltage) or it climbs its heating curve (it heats). More heat
-  // stops the first (a re-heat below the loop's peak is flat: return-point memory) and speeds
-  // the second. The move is watched for kProbeWatch ticks (its own decay r), the gain raised by
-  // kProbeGain, and after kProbeWait ticks the position's move is compared with the one the
-  // decay predicts: at less than half of it the gain is kept, else it is undone.
-  static constexpr uint8_t kProbeIdle = 0, kProbeWatch = 1, kProbeOn = 2, kProbeKept = 3, kProbeDone = 4;
-  void probe_hold(T ref, T moving) {
-    const uint16_t watch_ticks = 40, wait_ticks = 60;
-    if (held_ticks_ == 0) probe_ = kProbeIdle;
-    if (held_ticks_ == 0 || !heating_) return;
-    const bool rising = abs(deps_ * mech_.g) < T(0.002) && x_fast_ - ref > reapproach_ && moving > lag_guard_;
-    if (probe_ == kProbeIdle) {
-      if (rising) {
-        probe_ = kProbeWatch;
-        probe_move_ = moving;
-        probe_ticks_ = 0;
-      }
-    } else if (probe_ == kProbeWatch && ++probe_ticks_ >= watch_ticks) {
-      probe_ = kProbeDone;
-      if (!rising) return;
-      probe_decay_ = min(moving / probe_move_, T(1));  // the move's own decay over watch_ticks
-      probe_move_ = moving;
-      probe_x_ = x_fast_;
-      probe_ticks_ = 0;
-      probe_ = kProbeOn;
-      heat_.adjust(T(0.05));
-      loss_rate_ = heat_.loss_correction() * inv_dt_;
-    } else if (probe_ == kProbeOn && ++probe_ticks_ >= wait_ticks) {
-      // Expected without the probe over wait_ticks: the move's rate (moving / 0.4 s) decaying by
-      // probe_decay_ per watch_ticks (r^1.5 = r sqrt(r)).
-      const T expect = probe_move_ * T(1.5) * probe_decay_ * sqrt(probe_decay_);
-      probe_ = kProbeKept;
-      if (!(x_fast_ - probe_x_ < T(0.5) * expect)) {
-        heat_.adjust(T(-0.05));
-        loss_rate_ = heat_.loss_correction() * inv_dt_;
-        probe_ = kProbeDone;
-      }
-    }
   }
 
   // d into the heating curve's shift (eq 15 of the position the model wire would need, against
@@ -572,10 +528,7 @@ class PreviewCore {
   SMA_PREVIEW_NOINLINE void reapproach() {
     reapproach_due_ = false;
     const T eps_w = fraction(x_fast_);
-    // (e') With the probe's gain kept the wire is back on its heating curve at its own peak: the
-    // rise is not subtracted (kProbeFromPeak; off, see section 30).
-    const bool from_peak = kProbeFromPeak && probe_ == kProbeKept;
-    const T eps_peak = from_peak ? eps_w : max(eps_w - (curves_.start_loop(T_est_, eps_w, true).top - eps_w), T(0));
+    const T eps_peak = max(eps_w - (curves_.start_loop(T_est_, eps_w, true).top - eps_w), T(0));
     if (shift_gain_ > T(0)) {
       const T dshift = clamp(curves_.heat_temperature(eps_peak) - T_est_, T(-5), T(5));
       shift_ = shift_ + dshift;
@@ -1036,10 +989,6 @@ class PreviewCore {
   uint16_t reapproach_after_;          // ticks above the hold before it is re-approached: 3.5 s
   uint16_t above_ticks_;
   bool reapproach_due_;
-  static constexpr bool kProbeFromPeak = false;
-  uint8_t probe_ = 0;
-  uint16_t probe_ticks_ = 0;
-  T probe_move_ = T(0), probe_decay_ = T(0), probe_x_ = T(0);
   uint8_t reheat_;  // the re-approach's re-heat: kReheatNone, kReheatCooling, kReheatDue
   T x_fast_ = T(0), x_slow_ = T(0);    // the measurement low-passed over 0.2 s and 0.6 s
   bool x_init_;
