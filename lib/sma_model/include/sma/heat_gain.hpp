@@ -45,32 +45,51 @@ __attribute__((noinline)) T low_pass(T m, T a, T x) {
   return m + a * (x - m);
 }
 
-// The least-squares slope of z over S with weights w, exponential forgetting a a sample and the
-// ridge prior of a spread of S of 1 K towards slope 1 (HeatLossObserver::add):
+// k of the 2x2 system below (RawMoments; Cramer's rule); false when it is singular.
+template <class T>
+bool solve_gain(T vs, T vl, T csl, T csz, T clz, T& k) {
+  const T den = vs * vl - csl * csl;
+  if (!(den > T(0))) return false;
+  k = (csz * vl - csl * clz) / den;
+  return true;
+}
+
+// The least-squares slope of z over S with weights w and exponential forgetting a a sample,
+// beside a second regressor SL (the latent heat's sensitivity, HeatLossObserver), with ridge
+// priors: a spread of S of 1 K towards slope 1, a spread of SL of sigma_L towards no latent
+// heat (HeatLossObserver::add). In the weighted (co)variances:
 //
-//     k = (cov_w(S, z) + 1 K^2) / (var_w(S) + 1 K^2)
+//     [ var(S) + 1    cov(S, SL)         ] [ k ]   [ cov(S, z) + 1 ]
+//     [ cov(S, SL)    var(SL) + sigma_L^2] [ l ] = [ cov(SL, z)    ]
 //
-// add() takes a sample and gives k; false while there is no estimate (no sample yet).
+// solved for k (Cramer). add() takes a sample and gives k; false while there is no estimate.
 template <class T>
 struct RawMoments {
   T mw, mws, mwss, mwz, mwsz;  // weighted means: w, w S, w S^2, w z, w S z
+  T mwl, mwll, mwsl, mwlz;     // and w SL, w SL^2, w S SL, w SL z
 
-  void reset() { mw = mws = mwss = mwz = mwsz = T(0); }
+  void reset() { mw = mws = mwss = mwz = mwsz = mwl = mwll = mwsl = mwlz = T(0); }
 
   // w = slope^2 (mm/K)^2. With everything multiplied by mw^2: no division but the last.
-  bool add(T slope, T S, T z, T a, T& k) {
+  bool add(T slope, T S, T SL, T z, T a, T prior_L, T& k) {
     const T w = slope * slope;
-    const T ws = w * S;
+    const T ws = w * S, wl = w * SL;
     mw = low_pass(mw, a, w);
     mws = low_pass(mws, a, ws);
     mwss = low_pass(mwss, a, ws * S);
     mwz = low_pass(mwz, a, w * z);
     mwsz = low_pass(mwsz, a, ws * z);
-    const T var = mw * mwss - mws * mws;  // mw^2 x the weighted variance of S, K^2
-    const T prior = mw * mw;              // mw^2 x (1 K)^2
-    if (!(var + prior > T(0))) return false;
-    k = (mw * mwsz - mws * mwz + prior) / (var + prior);
-    return true;
+    mwl = low_pass(mwl, a, wl);
+    mwll = low_pass(mwll, a, wl * SL);
+    mwsl = low_pass(mwsl, a, ws * SL);
+    mwlz = low_pass(mwlz, a, wl * z);
+    const T prior = mw * mw;  // mw^2 x (1 K)^2
+    const T vs = mw * mwss - mws * mws + prior;  // mw^2 x (the weighted variance of S + 1 K^2)
+    const T vl = mw * mwll - mwl * mwl + prior * prior_L;
+    const T csl = mw * mwsl - mws * mwl;
+    const T csz = mw * mwsz - mws * mwz + prior;
+    const T clz = mw * mwlz - mwl * mwz;
+    return solve_gain(vs, vl, csl, csz, clz, k);
   }
 };
 
@@ -92,7 +111,8 @@ struct CentredMoments {
 
   void reset() { n = mS = mz = vS = cSz = T(0); }
 
-  bool add(T slope, T S, T z, T a, T& k) {
+  // (SL and its prior unused: see HeatLossObserver, the latent heat's regressor.)
+  bool add(T slope, T S, T /*SL*/, T z, T a, T /*prior_L*/, T& k) {
     const T u = slope * T(32);
     const T w = u * u;
     n = n + w - a * n;
@@ -118,6 +138,10 @@ template <> struct MomentsFor<Fixed> { typedef CentredMoments<Fixed> type; };
 template <class T>
 class HeatLossObserver {
  public:
+#ifndef SMA_LATENT_PRIOR
+#define SMA_LATENT_PRIOR 0.01
+#endif
+  static constexpr double kLatentPrior = SMA_LATENT_PRIOR;
   // dt_s: the tick (tick()); sample_s: time between add() samples; memory_s: the regression's
   // forgetting time; adapt_s: time constant of the gain's move to the regression's slope;
   // dead_zone: |k - 1| below it reads as 1; k_lo..k_hi: the plausible range. (Always inlined:
@@ -126,6 +150,7 @@ class HeatLossObserver {
                                                   double adapt_s, double dead_zone, double k_lo = 0.75,
                                                   double k_hi = 1.33)
       : c_(from_double<T>(dt_s * p.conductance() / p.heat_capacity())),
+        e_(from_double<T>(dt_s / p.heat_capacity())),
         a_(from_double<T>(1.0 - decay_factor(sample_s / memory_s))),
         b_(from_double<T>(1.0 - decay_factor(sample_s / adapt_s))),
         k_lo_(from_double<T>(k_lo)),
@@ -137,12 +162,17 @@ class HeatLossObserver {
   void reset() {
     m_.reset();
     S_ = T(0);
+    SL_ = T(0);
     k_ = T(1);
     kc_ = T(0);
   }
 
-  // One tick of the sensitivity S, from the model wire's temperature rise T_model - T_a (K).
-  void tick(T rise) { S_ = S_ - c_ * (k_ * S_ + rise); }
+  // One tick of the sensitivities S and SL, from the model wire's temperature rise T_model - T_a
+  // (K) and the rate of its fraction (1/s).
+  void tick(T rise, T deps_dt = T(0)) {
+    S_ = S_ - c_ * (k_ * S_ + rise);
+    SL_ = SL_ - c_ * k_ * SL_ - e_ * deps_dt;
+  }
 
   // One sample while both wires transform on the heating curve: gap = T_wire - T_model seen
   // through the position (K), slope = the curve's position per kelvin (mm/K). (Always inlined
@@ -154,7 +184,7 @@ class HeatLossObserver {
     // worth a spread of S of 1 K: data that span few temperatures cannot tell the slope from the
     // intercept (the first transient from ambient spans only a few kelvin).
     T k_ls;
-    if (!m_.add(slope, S_, z, a_, k_ls)) return;
+    if (!m_.add(slope, S_, SL_, z, a_, from_double<T>(kLatentPrior), k_ls)) return;
     k_ls = clamp(k_ls, k_lo_, k_hi_);
     if (!is_finite(k_ls)) return;
     // Within the dead zone the model's own h is kept: the slope's bias from the loop's transients
@@ -171,9 +201,11 @@ class HeatLossObserver {
 
  private:
   T c_;  // G dt / C
+  T e_;  // dt / C
   T a_, b_, k_lo_, k_hi_, dead_;
   typename MomentsFor<T>::type m_;  // the regression's sums
   T S_;                             // dT/dk along the model wire's path, K
+  T SL_;                            // dT/dL along it, K/J
   T k_, kc_;
 };
 

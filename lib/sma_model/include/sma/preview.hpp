@@ -624,7 +624,7 @@ class PreviewCore {
   // prepare_next_tick(). Two multiplies less in the control section. (A reset() between the
   // tick and prepare_next_tick() drops that tick's step of S: the model wire restarts anyway.)
   SMA_PREVIEW_NOINLINE void sensitivity_tick() {
-    if (observing()) heat_.tick(T_est_ - thermal_.T_a);
+    if (observing()) heat_.tick(T_est_ - thermal_.T_a, deps_);
   }
 
   // The highest PWM level at or below v (the heater's duty = (V / v_supply)^2). A hundredth of
