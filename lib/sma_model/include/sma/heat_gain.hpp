@@ -45,12 +45,21 @@ __attribute__((noinline)) T low_pass(T m, T a, T x) {
   return m + a * (x - m);
 }
 
-// k of the 2x2 system below (RawMoments; Cramer's rule); false when it is singular.
+// k of the 2x2 system below (RawMoments; Cramer's rule), with the latent heat's coefficient l
+// not below l_min (a wire has no negative latent heat: l_min = -the model's): where the free
+// solution's l is below it, l is held there and k is the slope of z - l_min SL over S. False
+// when the system is singular.
 template <class T>
-bool solve_gain(T vs, T vl, T csl, T csz, T clz, T& k) {
+bool solve_gain(T vs, T vl, T csl, T csz, T clz, T l_min, T& k, T& l) {
   const T den = vs * vl - csl * csl;
   if (!(den > T(0))) return false;
-  k = (csz * vl - csl * clz) / den;
+  if (vs * clz - csl * csz < l_min * den) {
+    k = (csz - l_min * csl) / vs;
+    l = l_min;
+  } else {
+    k = (csz * vl - csl * clz) / den;
+    l = (vs * clz - csl * csz) / den;
+  }
   return true;
 }
 
@@ -71,7 +80,7 @@ struct RawMoments {
   void reset() { mw = mws = mwss = mwz = mwsz = mwl = mwll = mwsl = mwlz = T(0); }
 
   // w = slope^2 (mm/K)^2. With everything multiplied by mw^2: no division but the last.
-  bool add(T slope, T S, T SL, T z, T a, T prior_L, T& k) {
+  bool add(T slope, T S, T SL, T z, T a, T prior_L, T l_min, T& k, T& l) {
     const T w = slope * slope;
     const T ws = w * S, wl = w * SL;
     mw = low_pass(mw, a, w);
@@ -89,7 +98,7 @@ struct RawMoments {
     const T csl = mw * mwsl - mws * mwl;
     const T csz = mw * mwsz - mws * mwz + prior;
     const T clz = mw * mwlz - mwl * mwz;
-    return solve_gain(vs, vl, csl, csz, clz, k);
+    return solve_gain(vs, vl, csl, csz, clz, l_min, k, l);
   }
 };
 
@@ -112,7 +121,8 @@ struct CentredMoments {
   void reset() { n = mS = mz = vS = cSz = T(0); }
 
   // (SL and its prior unused: see HeatLossObserver, the latent heat's regressor.)
-  bool add(T slope, T S, T /*SL*/, T z, T a, T /*prior_L*/, T& k) {
+  bool add(T slope, T S, T /*SL*/, T z, T a, T /*prior_L*/, T /*l_min*/, T& k, T& l) {
+    l = T(0);
     const T u = slope * T(32);
     const T w = u * u;
     n = n + w - a * n;
@@ -147,7 +157,8 @@ class HeatLossObserver {
   // dead_zone: |k - 1| below it reads as 1; k_lo..k_hi: the plausible range. (Always inlined:
   // out of line, avr-gcc 5.4 makes the Q16.16 one 320 B more flash.)
   __attribute__((always_inline)) HeatLossObserver(const Params& p, double dt_s, double sample_s, double memory_s,
-                                                  double adapt_s, double dead_zone, double k_lo = 0.75,
+                                                  double adapt_s, double dead_zone, double model_latent_J = 0.0,
+                                                  double k_lo = 0.75,
                                                   double k_hi = 1.33)
       : c_(from_double<T>(dt_s * p.conductance() / p.heat_capacity())),
         e_(from_double<T>(dt_s / p.heat_capacity())),
@@ -155,7 +166,8 @@ class HeatLossObserver {
         b_(from_double<T>(1.0 - decay_factor(sample_s / adapt_s))),
         k_lo_(from_double<T>(k_lo)),
         k_hi_(from_double<T>(k_hi)),
-        dead_(from_double<T>(dead_zone)) {
+        dead_(from_double<T>(dead_zone)),
+        l_min_(from_double<T>(-model_latent_J)) {
     reset();
   }
 
@@ -183,8 +195,9 @@ class HeatLossObserver {
     // The slope of z over S (ridge regression, weight slope^2), pulled towards k = 1 by a prior
     // worth a spread of S of 1 K: data that span few temperatures cannot tell the slope from the
     // intercept (the first transient from ambient spans only a few kelvin).
-    T k_ls;
-    if (!m_.add(slope, S_, SL_, z, a_, from_double<T>(kLatentPrior), k_ls)) return;
+    T k_ls, l_ls;
+    if (!m_.add(slope, S_, SL_, z, a_, from_double<T>(kLatentPrior), l_min_, k_ls, l_ls)) return;
+    l_ = l_ls;
     k_ls = clamp(k_ls, k_lo_, k_hi_);
     if (!is_finite(k_ls)) return;
     // Within the dead zone the model's own h is kept: the slope's bias from the loop's transients
@@ -195,6 +208,7 @@ class HeatLossObserver {
   }
 
   T gain() const { return k_; }
+  T latent() const { return l_; }
   T sensitivity() const { return S_; }  // dT/dk along the model wire's path, K
   // (k^ - 1) G dt / C: the model wire's extra loss per tick and kelvin above ambient.
   T loss_correction() const { return kc_; }
@@ -203,10 +217,12 @@ class HeatLossObserver {
   T c_;  // G dt / C
   T e_;  // dt / C
   T a_, b_, k_lo_, k_hi_, dead_;
+  T l_min_;  // -the model's latent heat, J: the wire's latent heat is not negative
   typename MomentsFor<T>::type m_;  // the regression's sums
   T S_;                             // dT/dk along the model wire's path, K
   T SL_;                            // dT/dL along it, K/J
   T k_, kc_;
+  T l_ = T(0);
 };
 
 }  // namespace sma

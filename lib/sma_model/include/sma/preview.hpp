@@ -237,7 +237,7 @@ class PreviewCore {
         v_supply_(cfg.v_supply),
         grid_ticks_(from_double<T>(cfg.grid_s / cfg.dt)),
         heat_(p, cfg.dt, kObserveTicks * cfg.dt, cfg.heat_gain_memory_s > 0.0 ? cfg.heat_gain_memory_s : 1.0,
-              cfg.heat_gain_adapt_s, cfg.heat_gain_dead_zone),
+              cfg.heat_gain_adapt_s, cfg.heat_gain_dead_zone, fx.latent_heat_J),
         observe_heat_(cfg.heat_gain_memory_s > 0.0),
         lag_ticks_(from_double<T>(cfg.heat_gain_lag_ticks)),
         far_step_s_(cfg.lookahead_s / kFar),
@@ -432,6 +432,7 @@ class PreviewCore {
   bool heating() const { return heating_; }       // the branch the controller drives
   uint16_t plans() const { return plans_; }       // completed plans (tests, telemetry)
   T heat_loss_gain() const { return heat_.gain(); }  // the wire's heat loss against the model's
+  T heat_latent() const { return heat_.latent(); }
   T heating_shift() const { return shift_; }  // K: the wire at T is where the model's curve has T + shift
 
  private:
