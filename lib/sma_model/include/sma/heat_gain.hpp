@@ -148,17 +148,15 @@ template <> struct MomentsFor<Fixed> { typedef CentredMoments<Fixed> type; };
 template <class T>
 class HeatLossObserver {
  public:
-#ifndef SMA_LATENT_PRIOR
-#define SMA_LATENT_PRIOR 0.01
-#endif
-  static constexpr double kLatentPrior = SMA_LATENT_PRIOR;
   // dt_s: the tick (tick()); sample_s: time between add() samples; memory_s: the regression's
   // forgetting time; adapt_s: time constant of the gain's move to the regression's slope;
-  // dead_zone: |k - 1| below it reads as 1; k_lo..k_hi: the plausible range. (Always inlined:
-  // out of line, avr-gcc 5.4 makes the Q16.16 one 320 B more flash.)
+  // dead_zone: |k - 1| below it reads as 1; latent_spread: the latent heat's regressor's prior,
+  // a spread of SL (K/J; 0: no such regressor); model_latent_J: the model's latent heat; k_lo..k_hi:
+  // the plausible range. (Always inlined: out of line, avr-gcc 5.4 makes the Q16.16 one 320 B more
+  // flash.)
   __attribute__((always_inline)) HeatLossObserver(const Params& p, double dt_s, double sample_s, double memory_s,
-                                                  double adapt_s, double dead_zone, double model_latent_J = 0.0,
-                                                  double k_lo = 0.75,
+                                                  double adapt_s, double dead_zone, double latent_spread = 0.0,
+                                                  double model_latent_J = 0.0, double k_lo = 0.75,
                                                   double k_hi = 1.33)
       : c_(from_double<T>(dt_s * p.conductance() / p.heat_capacity())),
         e_(from_double<T>(dt_s / p.heat_capacity())),
@@ -167,7 +165,9 @@ class HeatLossObserver {
         k_lo_(from_double<T>(k_lo)),
         k_hi_(from_double<T>(k_hi)),
         dead_(from_double<T>(dead_zone)),
-        l_min_(from_double<T>(-model_latent_J)) {
+        l_min_(from_double<T>(-model_latent_J)),
+        prior_L_(from_double<T>(latent_spread > 0.0 ? latent_spread * latent_spread : 1.0)),
+        latent_(latent_spread > 0.0) {
     reset();
   }
 
@@ -180,10 +180,11 @@ class HeatLossObserver {
   }
 
   // One tick of the sensitivities S and SL, from the model wire's temperature rise T_model - T_a
-  // (K) and the rate of its fraction (1/s).
+  // (K) and the rate of its fraction (1/s). (Without the latent regressor SL stays 0, and the
+  // regression is z over S alone.)
   void tick(T rise, T deps_dt = T(0)) {
     S_ = S_ - c_ * (k_ * S_ + rise);
-    SL_ = SL_ - c_ * k_ * SL_ - e_ * deps_dt;
+    if (latent_) SL_ = SL_ - c_ * k_ * SL_ - e_ * deps_dt;
   }
 
   // One sample while both wires transform on the heating curve: gap = T_wire - T_model seen
@@ -196,7 +197,7 @@ class HeatLossObserver {
     // worth a spread of S of 1 K: data that span few temperatures cannot tell the slope from the
     // intercept (the first transient from ambient spans only a few kelvin).
     T k_ls, l_ls;
-    if (!m_.add(slope, S_, SL_, z, a_, from_double<T>(kLatentPrior), l_min_, k_ls, l_ls)) return;
+    if (!m_.add(slope, S_, SL_, z, a_, prior_L_, l_min_, k_ls, l_ls)) return;
     l_ = l_ls;
     k_ls = clamp(k_ls, k_lo_, k_hi_);
     if (!is_finite(k_ls)) return;
@@ -217,7 +218,9 @@ class HeatLossObserver {
   T c_;  // G dt / C
   T e_;  // dt / C
   T a_, b_, k_lo_, k_hi_, dead_;
-  T l_min_;  // -the model's latent heat, J: the wire's latent heat is not negative
+  T l_min_;    // -the model's latent heat, J: the wire's latent heat is not negative
+  T prior_L_;  // the latent regressor's prior, (K/J)^2
+  bool latent_;
   typename MomentsFor<T>::type m_;  // the regression's sums
   T S_;                             // dT/dk along the model wire's path, K
   T SL_;                            // dT/dL along it, K/J
