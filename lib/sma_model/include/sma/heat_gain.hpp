@@ -74,6 +74,7 @@ bool solve_gain(T vs, T vl, T csl, T csz, T clz, T l_min, T& k, T& l) {
 // solved for k (Cramer). add() takes a sample and gives k; false while there is no estimate.
 template <class T>
 struct RawMoments {
+  static constexpr bool kLatent = true;  // takes the latent heat's regressor
   T mw, mws, mwss, mwz, mwsz;  // weighted means: w, w S, w S^2, w z, w S z
   T mwl, mwll, mwsl, mwlz;     // and w SL, w SL^2, w S SL, w SL z
 
@@ -116,11 +117,11 @@ struct RawMoments {
 // (test_preview_heat_loss.cpp).
 template <class T>
 struct CentredMoments {
+  static constexpr bool kLatent = false;  // z over S alone (SL, its prior and l_min unused)
   T n, mS, mz, vS, cSz;  // sum of weights, weighted means of S and z (K), var(S), cov(S, z) (K^2)
 
   void reset() { n = mS = mz = vS = cSz = T(0); }
 
-  // (SL and its prior unused: see HeatLossObserver, the latent heat's regressor.)
   bool add(T slope, T S, T /*SL*/, T z, T a, T /*prior_L*/, T /*l_min*/, T& k, T& l) {
     l = T(0);
     const T u = slope * T(32);
@@ -167,7 +168,7 @@ class HeatLossObserver {
         dead_(from_double<T>(dead_zone)),
         l_min_(from_double<T>(-model_latent_J)),
         prior_L_(from_double<T>(latent_spread > 0.0 ? latent_spread * latent_spread : 1.0)),
-        latent_(latent_spread > 0.0) {
+        latent_(latent_spread > 0.0 && MomentsFor<T>::type::kLatent) {
     reset();
   }
 
