@@ -22,6 +22,17 @@
 // temperature). The caller applies k^ to the model wire: eq 1's loss term k^ G (T - T_a) in its
 // temperature step and in eq 17 (loss_correction()).
 //
+// A latent heat the model lacks (eq 1's - L deps/dt) opens a gap of its own while the wires
+// transform, and it grows with the transformation as a heat-loss error's does: read as k, it
+// puts a gain the wire does not have into the model wire. So the gap has a third term,
+// (L - L^) SL with SL = dT/dL along the model wire's path,
+//
+//     C dSL/dt = -k^ G SL - deps/dt,     z = k S + (L - L^) SL + delta,
+//
+// and z is regressed on S and SL together (latent_spread > 0), with L - L^ >= -L^ (a wire has
+// no negative latent heat). L - L^ only keeps k clean; the model wire does not use it (a fit's
+// curves whose span is not the wire's open a gap along the transformation as well).
+//
 // The regression's sums: in float and double the weighted means of w, w S, w S^2, w z, w S z
 // (RawMoments). Q16.16 cannot hold those: the weights are ~1e-4..2.5e-3 (mm/K)^2 and the means
 // move by ~1e-6 a sample, below its LSB (1.5e-5), and the products mw mwss, mws^2 cancel to a
