@@ -21,8 +21,11 @@
 #include "sma/codegen.hpp"
 #ifdef SMA_FIRMWARE_FIXED
 #include "sma/fixed.hpp"
+#include "sma/float_from_int.hpp"
 typedef sma::Fixed Scalar;
 #define FW_VARIANT "fixed"
+// The image's int -> float conversions (sma/float_from_int.hpp): 30 B less than avr-libc's.
+__asm__(SMA_FLOAT_FROM_INT_ASM("__floatunsisf", "__floatsisf"));
 #else
 typedef float Scalar;
 #define FW_VARIANT "float"
