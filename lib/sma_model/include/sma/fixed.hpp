@@ -817,9 +817,9 @@ inline int32_t div_raw_portable(int32_t a, int32_t b) {
 #if defined(__AVR__)
 // The same on the AVR in one block (~65 instructions; the C version: ~160, fourteen registers
 // saved). The quotient's magnitude is at most 2^31 after rounding (the remainder starts below
-// |b|): negated it is in range, positive it saturates only at 2^31.
+// |b|): negated it is in range, positive it saturates only at 2^31. b = 0 needs no test of its
+// own: |a| >> 15 >= 0 = |b| takes the saturation, signed as a (the quotient's sign bit is a's).
 __attribute__((noinline)) inline int32_t div_raw(int32_t a, int32_t b) {
-  if (b == 0) return saturated(a < 0);
   uint32_t ua = static_cast<uint32_t>(a);  // |a|, then the dividend bits and the quotient
   uint32_t ub = static_cast<uint32_t>(b);  // |b|
   uint32_t r;                              // the remainder
