@@ -155,7 +155,6 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
            static_cast<size_t>(reinterpret_cast<char*>(&v_ + 1) - reinterpret_cast<char*>(&line_)));
     initial_safety(&safety_.x);
     initial_state(&state_.s);
-    state_.s.tlim_C = Rig::t_limit_C();
 #if SMA_CONSOLE_PREVIEW
     if (kPreview) state_.s.mode = state_.s.loop_mode = Mode::Preview;
 #endif
@@ -603,19 +602,28 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   static void initial_safety(SafetyLatch<T>* s) { new (s) SafetyLatch<T>(safety_config()); }
 #endif
 
-  // The console's initial state: on AVR zeroes, and copies of the constants in flash with
-  // non-zero defaults (constructed in place, its ~250 bytes of defaults cost a store each: ~1 KB
-  // of the static constructor; copied whole, the trajectory's zero points took 129 B of flash).
+  // The console's initial state: the console's defaults with the latch's limit of the rig. On
+  // AVR zeroes, and copies of the constants in flash with non-zero defaults (constructed in
+  // place, its ~250 bytes of defaults cost a store each: ~1 KB of the static constructor; copied
+  // whole, the trajectory's zero points took 129 B of flash).
+  static constexpr console::Settings initial_settings() {
+    console::Settings c{};
+    c.tlim_C = Rig::t_limit_C();
+    return c;
+  }
 #if defined(__AVR__)
   static SMA_NOINLINE void initial_state(console::State* s) {
-    static const console::Settings kSettings PROGMEM = console::Settings();
+    static constexpr console::Settings kSettings PROGMEM = initial_settings();
     static constexpr RefShape kShape PROGMEM = console::trajectory_shape();
     memset(static_cast<void*>(s), 0, sizeof(console::State));
     memcpy_P(static_cast<console::Settings*>(s), &kSettings, sizeof(console::Settings));
     memcpy_P(static_cast<RefShape*>(&s->traj), &kShape, sizeof(RefShape));
   }
 #else
-  static void initial_state(console::State* s) { new (s) console::State(); }
+  static void initial_state(console::State* s) {
+    new (s) console::State();
+    static_cast<console::Settings&>(*s) = initial_settings();
+  }
 #endif
 
   // The models from the active set in EEPROM, or the paper's values when there is none. The
