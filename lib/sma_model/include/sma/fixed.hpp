@@ -1258,32 +1258,36 @@ inline uint16_t isqrt32_portable(uint32_t n, uint32_t& rem) {
 // last four (its byte 0). The bits of n are shifted out of the top of those bytes straight into
 // the remainder, never a 32-bit shift of n.
 __attribute__((noinline)) inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
-  uint32_t r;  // the remainder (3 bytes used)
-  uint32_t s;  // 4 R (3 bytes used); its top byte counts the steps
+  // Ten registers, placed so that with rem's address (Z) they are the call-clobbered ones: none
+  // saved (4R's bytes apart: a 3-byte value starts at an even register). The steps are counted
+  // in a byte not yet (r's top) or no longer (n's top) used, 0 again when they end.
+  register uint32_t nr __asm__("r22") = n;
+  register __uint24 r __asm__("r18");  // the remainder
+  register uint8_t s0 __asm__("r26");  // 4 R
+  register uint8_t s1 __asm__("r27");
+  register uint8_t s2 __asm__("r21");
   __asm__(
       "clr  %A[r]         \n\t"
       "clr  %B[r]         \n\t"
-      "clr  %C[r]         \n\t"
-      "clr  %D[r]         \n\t"
-      "clr  %A[s]         \n\t"
-      "clr  %B[s]         \n\t"
-      "clr  %C[s]         \n\t"
-      "ldi  %D[s], 4      \n\t"
+      "ldi  %C[r], 4      \n\t"
+      "clr  %[s0]         \n\t"
+      "clr  %[s1]         \n\t"
+      "clr  %[s2]         \n\t"
       "1:                 \n\t"  // bits 15..12 of the root from n's byte 3
       "lsl  %D[n]         \n\t"
       "rol  %A[r]         \n\t"
       "lsl  %D[n]         \n\t"
       "rol  %A[r]         \n\t"
-      "cp   %A[s], %A[r]  \n\t"  // 4R < r: the bit is 1
+      "cp   %[s0], %A[r]  \n\t"  // 4R < r: the bit is 1
       "brcc 2f            \n\t"
       "sec                \n\t"  // r -= 4R + 1
-      "sbc  %A[r], %A[s]  \n\t"
-      "ori  %A[s], 2      \n\t"
+      "sbc  %A[r], %[s0]  \n\t"
+      "ori  %[s0], 2      \n\t"
       "2:                 \n\t"
-      "lsl  %A[s]         \n\t"
-      "dec  %D[s]         \n\t"
+      "lsl  %[s0]         \n\t"
+      "dec  %C[r]         \n\t"
       "brne 1b            \n\t"
-      "ldi  %D[s], 8      \n\t"
+      "ldi  %D[n], 8      \n\t"  // n's top byte is shifted out
       "3:                 \n\t"  // bits 11..4 from n's bytes 2, 1
       "lsl  %B[n]         \n\t"
       "rol  %C[n]         \n\t"
@@ -1293,19 +1297,19 @@ __attribute__((noinline)) inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
       "rol  %C[n]         \n\t"
       "rol  %A[r]         \n\t"
       "rol  %B[r]         \n\t"
-      "cp   %A[s], %A[r]  \n\t"
-      "cpc  %B[s], %B[r]  \n\t"
+      "cp   %[s0], %A[r]  \n\t"
+      "cpc  %[s1], %B[r]  \n\t"
       "brcc 4f            \n\t"
       "sec                \n\t"
-      "sbc  %A[r], %A[s]  \n\t"
-      "sbc  %B[r], %B[s]  \n\t"
-      "ori  %A[s], 2      \n\t"
+      "sbc  %A[r], %[s0]  \n\t"
+      "sbc  %B[r], %[s1]  \n\t"
+      "ori  %[s0], 2      \n\t"
       "4:                 \n\t"
-      "lsl  %A[s]         \n\t"
-      "rol  %B[s]         \n\t"
-      "dec  %D[s]         \n\t"
+      "lsl  %[s0]         \n\t"
+      "rol  %[s1]         \n\t"
+      "dec  %D[n]         \n\t"
       "brne 3b            \n\t"
-      "ldi  %D[s], 4      \n\t"
+      "ldi  %D[n], 4      \n\t"
       "5:                 \n\t"  // bits 3..0 from n's byte 0
       "lsl  %A[n]         \n\t"
       "rol  %A[r]         \n\t"
@@ -1315,30 +1319,31 @@ __attribute__((noinline)) inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
       "rol  %A[r]         \n\t"
       "rol  %B[r]         \n\t"
       "rol  %C[r]         \n\t"
-      "cp   %A[s], %A[r]  \n\t"
-      "cpc  %B[s], %B[r]  \n\t"
-      "cpc  %C[s], %C[r]  \n\t"
+      "cp   %[s0], %A[r]  \n\t"
+      "cpc  %[s1], %B[r]  \n\t"
+      "cpc  %[s2], %C[r]  \n\t"
       "brcc 6f            \n\t"
       "sec                \n\t"
-      "sbc  %A[r], %A[s]  \n\t"
-      "sbc  %B[r], %B[s]  \n\t"
-      "sbc  %C[r], %C[s]  \n\t"
-      "ori  %A[s], 2      \n\t"
+      "sbc  %A[r], %[s0]  \n\t"
+      "sbc  %B[r], %[s1]  \n\t"
+      "sbc  %C[r], %[s2]  \n\t"
+      "ori  %[s0], 2      \n\t"
       "6:                 \n\t"
-      "lsl  %A[s]         \n\t"
-      "rol  %B[s]         \n\t"
-      "rol  %C[s]         \n\t"
-      "dec  %D[s]         \n\t"
+      "lsl  %[s0]         \n\t"
+      "rol  %[s1]         \n\t"
+      "rol  %[s2]         \n\t"
+      "dec  %D[n]         \n\t"
       "brne 5b            \n\t"
-      "lsr  %C[s]         \n\t"  // R = 4R / 4
-      "ror  %B[s]         \n\t"
-      "ror  %A[s]         \n\t"
-      "lsr  %C[s]         \n\t"
-      "ror  %B[s]         \n\t"
-      "ror  %A[s]         \n\t"
-      : [r] "=&r"(r), [s] "=&d"(s), [n] "+r"(n));
+      "lsr  %[s2]         \n\t"  // R = 4R / 4
+      "ror  %[s1]         \n\t"
+      "ror  %[s0]         \n\t"
+      "lsr  %[s2]         \n\t"
+      "ror  %[s1]         \n\t"
+      "ror  %[s0]         \n\t"
+      : [r] "=&d"(r), [s0] "=&d"(s0), [s1] "=&r"(s1), [s2] "=&r"(s2), [n] "+d"(nr));
+  (void)s2;
   rem = r;
-  return static_cast<uint16_t>(s);
+  return static_cast<uint16_t>((s1 << 8) | s0);
 }
 #else
 inline uint16_t isqrt32(uint32_t n, uint32_t& rem) { return isqrt32_portable(n, rem); }
