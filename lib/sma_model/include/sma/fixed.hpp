@@ -544,16 +544,16 @@ inline int32_t sub_raw(int32_t a, int32_t b) { return sub_raw_portable(a, b); }
 #endif
 
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
-// Assembly shared by the multiply and the division: x = -x (4 bytes; ff an operand holding 0xFF),
-// and x = T ? 0x80000000 : 0x7FFFFFFF, branching to `done` when T is set.
-#define SMA_FIXED_AVR_NEGATE(x, ff)                          \
+// Assembly shared by the multiply and the division: x = -x (4 bytes in r16..r31), and
+// x = T ? 0x80000000 : 0x7FFFFFFF, branching to `done` when T is set.
+#define SMA_FIXED_AVR_NEGATE(x)                              \
   "com  %D[" x "]  \n\t"                                     \
   "com  %C[" x "]  \n\t"                                     \
   "com  %B[" x "]  \n\t"                                     \
   "neg  %A[" x "]  \n\t"                                     \
-  "sbc  %B[" x "], %[" ff "]  \n\t"                          \
-  "sbc  %C[" x "], %[" ff "]  \n\t"                          \
-  "sbc  %D[" x "], %[" ff "]  \n\t"
+  "sbci %B[" x "], 0xFF  \n\t"                               \
+  "sbci %C[" x "], 0xFF  \n\t"                               \
+  "sbci %D[" x "], 0xFF  \n\t"
 #define SMA_FIXED_AVR_SATURATED(x, done)                     \
   "clr  %A[" x "]  \n\t"                                     \
   "clr  %B[" x "]  \n\t"                                     \
@@ -820,63 +820,67 @@ inline int32_t div_raw_portable(int32_t a, int32_t b) {
 // |b|): negated it is in range, positive it saturates only at 2^31. b = 0 needs no test of its
 // own: |a| >> 15 >= 0 = |b| takes the saturation, signed as a (the quotient's sign bit is a's).
 __attribute__((noinline)) inline int32_t div_raw(int32_t a, int32_t b) {
-  uint32_t ua = static_cast<uint32_t>(a);  // |a|, then the dividend bits and the quotient
-  uint32_t ub = static_cast<uint32_t>(b);  // |b|
-  uint32_t r;                              // the remainder
-  uint8_t k;                               // 0xFF for the negations, then the step count
+  // Twelve registers, the call-clobbered ones: a and b where the call brings them (the quotient
+  // returns in a's), the remainder in X and Z, the step count in r0. None saved.
+  register uint32_t ua __asm__("r22") = static_cast<uint32_t>(a);  // |a|, the dividend bits, the quotient
+  register uint32_t ub __asm__("r18") = static_cast<uint32_t>(b);  // |b|
+  register uint16_t rl __asm__("r26");  // the remainder, low half
+  register uint16_t rh __asm__("r30");  // the remainder, high half
   __asm__(
-      "mov  %[k], %D[a]   \n\t"
-      "eor  %[k], %D[b]   \n\t"
-      "bst  %[k], 7       \n\t"  // T = the quotient's sign
-      "ldi  %[k], 0xFF    \n\t"
+      "mov  r0, %D[a]     \n\t"
+      "eor  r0, %D[b]     \n\t"
+      "bst  r0, 7         \n\t"  // T = the quotient's sign
       "sbrs %D[a], 7      \n\t"
       "rjmp 1f            \n\t"
-      SMA_FIXED_AVR_NEGATE("a", "k")
+      SMA_FIXED_AVR_NEGATE("a")
       "1:                 \n\t"
       "sbrs %D[b], 7      \n\t"
       "rjmp 2f            \n\t"
-      SMA_FIXED_AVR_NEGATE("b", "k")
+      SMA_FIXED_AVR_NEGATE("b")
       "2:                 \n\t"  // r = |a| >> 15, the dividend bits left = |a| << 17
-      "mov  %A[r], %C[a]  \n\t"
-      "mov  %B[r], %D[a]  \n\t"
-      "clr  %C[r]         \n\t"
-      "clr  %D[r]         \n\t"
+      "mov  %A[rl], %C[a]  \n\t"
+      "mov  %B[rl], %D[a]  \n\t"
+      "clr  %A[rh]         \n\t"
+      "clr  %B[rh]         \n\t"
       "lsl  %A[a]         \n\t"
       "rol  %B[a]         \n\t"
-      "rol  %A[r]         \n\t"
-      "rol  %B[r]         \n\t"
-      "rol  %C[r]         \n\t"
+      "rol  %A[rl]         \n\t"
+      "rol  %B[rl]         \n\t"
+      "rol  %A[rh]         \n\t"
       "mov  %D[a], %B[a]  \n\t"
       "mov  %C[a], %A[a]  \n\t"
       "clr  %B[a]         \n\t"
       "clr  %A[a]         \n\t"
-      "cp   %A[r], %A[b]  \n\t"  // |quotient| >= 2^15: saturate
-      "cpc  %B[r], %B[b]  \n\t"
-      "cpc  %C[r], %C[b]  \n\t"
-      "cpc  %D[r], %D[b]  \n\t"
+      "cp   %A[rl], %A[b]  \n\t"  // |quotient| >= 2^15: saturate
+      "cpc  %B[rl], %B[b]  \n\t"
+      "cpc  %A[rh], %C[b]  \n\t"
+      "cpc  %B[rh], %D[b]  \n\t"
       "brsh 7f            \n\t"
-      "ldi  %[k], 32      \n\t"
+      "clr  r0            \n\t"  // 32 steps
+      "inc  r0            \n\t"
+      "swap r0            \n\t"
+      "lsl  r0            \n\t"
       "3:                 \n\t"  // a step: r < |b| <= 2^31, so 2 r + 1 fits
       "lsl  %A[a]         \n\t"
       "rol  %B[a]         \n\t"
       "rol  %C[a]         \n\t"
       "rol  %D[a]         \n\t"
-      "rol  %A[r]         \n\t"
-      "rol  %B[r]         \n\t"
-      "rol  %C[r]         \n\t"
-      "rol  %D[r]         \n\t"
-      "cp   %A[r], %A[b]  \n\t"
-      "cpc  %B[r], %B[b]  \n\t"
-      "cpc  %C[r], %C[b]  \n\t"
-      "cpc  %D[r], %D[b]  \n\t"
+      "rol  %A[rl]         \n\t"
+      "rol  %B[rl]         \n\t"
+      "rol  %A[rh]         \n\t"
+      "rol  %B[rh]         \n\t"
+      "cp   %A[rl], %A[b]  \n\t"
+      "cpc  %B[rl], %B[b]  \n\t"
+      "cpc  %A[rh], %C[b]  \n\t"
+      "cpc  %B[rh], %D[b]  \n\t"
       "brlo 4f            \n\t"
-      "sub  %A[r], %A[b]  \n\t"
-      "sbc  %B[r], %B[b]  \n\t"
-      "sbc  %C[r], %C[b]  \n\t"
-      "sbc  %D[r], %D[b]  \n\t"
+      "sub  %A[rl], %A[b]  \n\t"
+      "sbc  %B[rl], %B[b]  \n\t"
+      "sbc  %A[rh], %C[b]  \n\t"
+      "sbc  %B[rh], %D[b]  \n\t"
       "inc  %A[a]         \n\t"  // the quotient bit (bit 0 is clear after the shift)
       "4:                 \n\t"
-      "dec  %[k]          \n\t"
+      "dec  r0            \n\t"
       "brne 3b            \n\t"
       "lsr  %D[a]         \n\t"  // round half away from zero on the magnitude
       "ror  %C[a]         \n\t"
@@ -891,13 +895,12 @@ __attribute__((noinline)) inline int32_t div_raw(int32_t a, int32_t b) {
       "rjmp 9f            \n\t"
       "rjmp 7f            \n\t"
       "5:                 \n\t"  // negative: -m, -2^31 included
-      "ldi  %[k], 0xFF    \n\t"
-      SMA_FIXED_AVR_NEGATE("a", "k")
+      SMA_FIXED_AVR_NEGATE("a")
       "rjmp 9f            \n\t"
       "7:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
       SMA_FIXED_AVR_SATURATED("a", "9f")
       "9:                 \n\t"
-      : [a] "+r"(ua), [b] "+r"(ub), [r] "=&r"(r), [k] "=&d"(k));
+      : [a] "+d"(ua), [b] "+d"(ub), [rl] "=&r"(rl), [rh] "=&r"(rh));
   return as_signed(ua);
 }
 #else
