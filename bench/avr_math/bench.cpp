@@ -33,7 +33,8 @@ using sma::Fixed;
 // compiler's casts here still run avr-libc's (the reference).
 extern "C" float sma_float_from_u32(uint32_t u);
 extern "C" float sma_float_from_i32(int32_t v);
-__asm__(SMA_FLOAT_FROM_INT_ASM("sma_float_from_u32", "sma_float_from_i32"));
+extern "C" float sma_float_from_q16_test(int32_t raw);
+__asm__(SMA_FLOAT_FROM_INT_ASM("sma_float_from_u32", "sma_float_from_i32", "sma_float_from_q16_test"));
 
 namespace {
 
@@ -107,6 +108,8 @@ uint8_t float_from_int_mismatches(uint32_t u) {
   if (sma::fixed_detail::float_bits_from_u32(u) != want_u) ++n;
   const int32_t v = static_cast<int32_t>(u);
   if (bits_of(sma_float_from_i32(v)) != bits_of(static_cast<float>(v))) ++n;
+  // Q16.16: Fixed's conversion here is avr-libc's cast and the exponent change.
+  if (bits_of(sma_float_from_q16_test(v)) != bits_of(static_cast<float>(Fixed::from_raw(v)))) ++n;
   return n;
 }
 

@@ -47,6 +47,11 @@
 #define SMA_FIXED_ALWAYS_INLINE inline
 #endif
 
+#if defined(__AVR__) && defined(SMA_FIRMWARE_FIXED)
+// raw 2^-16 as a float: sma/float_from_int.hpp's assembly, defined in the Q16.16 image's main.cpp.
+extern "C" float sma_float_from_q16(int32_t raw);
+#endif
+
 namespace sma {
 
 // ---- integer helpers ------------------------------------------------------------------------
@@ -941,7 +946,11 @@ class Fixed {
   static constexpr Fixed from_raw(int32_t r) { return Fixed(RawTag(), r); }
   constexpr int32_t raw() const { return raw_; }
 
-#if defined(__AVR__)
+#if defined(__AVR__) && defined(SMA_FIRMWARE_FIXED)
+  // The Q16.16 image: the conversion's own entry (sma/float_from_int.hpp, defined by main.cpp).
+  __attribute__((noinline)) explicit operator float() const { return sma_float_from_q16(raw_); }
+  explicit operator double() const { return static_cast<double>(static_cast<float>(*this)); }
+#elif defined(__AVR__)
   // double is float on the AVR: one integer conversion and an exponent change. Out of line:
   // one copy for the telemetry's and the console's conversions.
   __attribute__((noinline)) explicit operator float() const {

@@ -2,7 +2,7 @@
 // The Q16.16 Uno image defines libgcc's two conversion entries (__floatunsisf, __floatsisf) with
 // the assembly below instead of avr-libc's 122-B member, so every conversion the compiler emits
 // (the tick count's time, `Fixed::operator float`, the counts the console prints) runs it;
-// 92 B, issue 12 item 4. bench/avr_math runs it under its own names against avr-libc's on every
+// 102 B with the third entry, issue 12 item 4. bench/avr_math runs it under its own names against avr-libc's on every
 // exponent; the native tests check the portable version against the host's cast.
 #ifndef SMA_FLOAT_FROM_INT_HPP
 #define SMA_FLOAT_FROM_INT_HPP
@@ -38,22 +38,30 @@ inline uint32_t float_bits_from_i32(int32_t v) {
 }  // namespace sma
 
 #if defined(__AVR__)
-// The AVR entries U (uint32_t) and S (int32_t) in r25..r22 -> float in r25..r22, as a top-level
-// assembly block for one translation unit (the firmware's main.cpp names them __floatunsisf and
-// __floatsisf; the linker then takes no member of the library for them). Clobbers r18, r19 and
-// T (call-used). S: the magnitude, T the sign. Whole bytes first while the top byte is 0 (a tick
-// count is below 2^24: ~60 cycles instead of ~200 bit by bit), three of them at most (a fourth
-// means 0, returned as it is). The rounding adds 0x7F, or 0x80 when the kept bits are odd, to the
-// low byte and carries through the exponent (r18). 46 instructions.
-#define SMA_FLOAT_FROM_INT_ASM(U, S)                                 \
+// The AVR entries U (uint32_t), S (int32_t) and Q (int32_t, a Q16.16 raw value: the float of
+// raw 2^-16, exactly as float_bits_from_raw) in r25..r22 -> float in r25..r22, as a top-level
+// assembly block for one translation unit (the firmware's main.cpp names the first two
+// __floatunsisf and __floatsisf; the linker then takes no member of the library for them).
+// Clobbers r18..r20 and T (call-used). S and Q: the magnitude, T the sign; r19 the exponent's
+// scale (16 for Q). Whole bytes first while the top byte is 0 (a tick count is below 2^24: ~60
+// cycles instead of ~200 bit by bit), three of them at most (a fourth means 0, returned as it
+// is). The rounding adds 0x7F, or 0x80 when the kept bits are odd, to the low byte and carries
+// through the exponent (r18). 51 instructions.
+#define SMA_FLOAT_FROM_INT_ASM(U, S, Q)                              \
   ".pushsection .text." U ",\"ax\",@progbits\n"                      \
   ".global " U "\n"                                                  \
   ".type " U ", @function\n"                                         \
   ".global " S "\n"                                                  \
-  ".type " S ", @function\n" U ":\n"                                 \
+  ".type " S ", @function\n"                                         \
+  ".global " Q "\n"                                                  \
+  ".type " Q ", @function\n" U ":\n"                                 \
   "  clt\n"                                                          \
-  "  rjmp 1f\n" S ":\n"                                              \
-  "  bst  r25, 7\n"                                                  \
+  "  clr  r19\n"                                                     \
+  "  rjmp 1f\n" Q ":\n"                                              \
+  "  ldi  r19, 16\n"                                                 \
+  "  rjmp 0f\n" S ":\n"                                              \
+  "  clr  r19\n"                                                     \
+  "0: bst r25, 7\n"                                                  \
   "  brtc 1f\n"                                                      \
   "  com  r25\n"                                                     \
   "  com  r24\n"                                                     \
@@ -80,14 +88,15 @@ inline uint32_t float_bits_from_i32(int32_t v) {
   "  rol  r24\n"                                                     \
   "  rol  r25\n"                                                     \
   "  rjmp 3b\n"                                                      \
-  "4: ldi r19, 0x7F\n"                                               \
+  "4: ldi r20, 0x7F\n"                                               \
   "  sbrc r23, 0\n"                                                  \
-  "  ldi  r19, 0x80\n"                                               \
-  "  add  r22, r19\n"                                                \
+  "  ldi  r20, 0x80\n"                                               \
+  "  add  r22, r20\n"                                                \
   "  adc  r23, r1\n"                                                 \
   "  adc  r24, r1\n"                                                 \
   "  adc  r25, r1\n"                                                 \
   "  adc  r18, r1\n"                                                 \
+  "  sub  r18, r19\n"                                                \
   "  mov  r22, r23\n"                                                \
   "  mov  r23, r24\n"                                                \
   "  lsl  r25\n"                                                     \
