@@ -515,7 +515,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     return to_double(x);
   }
   // Seconds since the run's start at its tick k (the training plan, the preview, status).
-  static float t_of(uint32_t k) { return static_cast<float>(k) * static_cast<float>(1.0 / Rig::tick_hz()); }
+  static SMA_NOINLINE float t_of(uint32_t k) { return static_cast<float>(k) * static_cast<float>(1.0 / Rig::tick_hz()); }
   // The reference at t (one copy of ReferenceGen::at for the tick and the preview's future).
   SMA_NOINLINE T ref_at(float t) { return gen().at(t); }
   // The preview's config: the rig's tick, V_max, PWM and (if it names one) steps_per_tick.
