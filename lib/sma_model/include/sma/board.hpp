@@ -149,10 +149,11 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   typedef console::LineBuffer::Status LineStatus;
 
   explicit Board(Hw hw = Hw()) : store_(hw) {
-    // The Zeroed members are declared one after the other (increasing addresses): one memset
-    // from the first to the end of the last (AVR: one loop instead of four, 42 B of flash).
-    memset(static_cast<void*>(&line_), 0,
-           static_cast<size_t>(reinterpret_cast<char*>(&v_ + 1) - reinterpret_cast<char*>(&line_)));
+    // The console's state and the Zeroed members are declared one after the other (increasing
+    // addresses): one memset from the first to the end of the last (AVR: one loop instead of
+    // five); initial_state() then writes the state's non-zero defaults.
+    memset(static_cast<void*>(&state_), 0,
+           static_cast<size_t>(reinterpret_cast<char*>(&v_ + 1) - reinterpret_cast<char*>(&state_)));
     initial_safety(&safety_.x);
     initial_state(&state_.s);
 #if SMA_CONSOLE_PREVIEW
@@ -594,7 +595,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   // The latch with the rig's config: on AVR a copy of a constant in flash (its stores cost
   // ~100 B of the static constructor).
 #if defined(__AVR__)
-  static SMA_NOINLINE void initial_safety(SafetyLatch<T>* s) {
+  static void initial_safety(SafetyLatch<T>* s) {
     static constexpr SafetyLatch<T> kSafety PROGMEM = SafetyLatch<T>(safety_config());
     memcpy_P(s, &kSafety, sizeof(SafetyLatch<T>));
   }
@@ -603,19 +604,18 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
 #endif
 
   // The console's initial state: the console's defaults with the latch's limit of the rig. On
-  // AVR zeroes, and copies of the constants in flash with non-zero defaults (constructed in
-  // place, its ~250 bytes of defaults cost a store each: ~1 KB of the static constructor; copied
-  // whole, the trajectory's zero points took 129 B of flash).
+  // AVR, over the constructor's zeroes, copies of the constants in flash with non-zero defaults
+  // (constructed in place, its ~250 bytes of defaults cost a store each: ~1 KB of the static
+  // constructor; copied whole, the trajectory's zero points took 129 B of flash).
   static constexpr console::Settings initial_settings() {
     console::Settings c{};
     c.tlim_C = Rig::t_limit_C();
     return c;
   }
 #if defined(__AVR__)
-  static SMA_NOINLINE void initial_state(console::State* s) {
+  static void initial_state(console::State* s) {
     static constexpr console::Settings kSettings PROGMEM = initial_settings();
     static constexpr RefShape kShape PROGMEM = console::trajectory_shape();
-    memset(static_cast<void*>(s), 0, sizeof(console::State));
     memcpy_P(static_cast<console::Settings*>(s), &kSettings, sizeof(console::Settings));
     memcpy_P(static_cast<RefShape*>(&s->traj), &kShape, sizeof(RefShape));
   }
@@ -772,8 +772,8 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   ModelStore models_;
   GenStore gen_;
   SafetyStore safety_;
+  // From state_ to v_: zeroed by the constructor (one memset; keep them together).
   StateStore state_;
-  // From line_ to v_: zeroed by the constructor (one memset; keep them together).
   Zeroed<console::LineBuffer> line_;
   Zeroed<console::Reply> reply_;
   Zeroed<console::Live> live_;
