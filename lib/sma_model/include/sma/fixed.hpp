@@ -948,7 +948,7 @@ class Fixed {
 
 #if defined(__AVR__) && defined(SMA_FIRMWARE_FIXED)
   // The Q16.16 image: the conversion's own entry (sma/float_from_int.hpp, defined by main.cpp).
-  __attribute__((noinline)) explicit operator float() const { return sma_float_from_q16(raw_); }
+  SMA_FIXED_ALWAYS_INLINE explicit operator float() const { return sma_float_from_q16(raw_); }
   explicit operator double() const { return static_cast<double>(static_cast<float>(*this)); }
 #elif defined(__AVR__)
   // double is float on the AVR: one integer conversion and an exponent change. Out of line:
