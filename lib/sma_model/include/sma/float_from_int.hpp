@@ -1,9 +1,10 @@
 // int32 / uint32 -> float rounded to nearest, ties to even: the result of static_cast<float>.
 // The Q16.16 Uno image defines libgcc's two conversion entries (__floatunsisf, __floatsisf) with
 // the assembly below instead of avr-libc's 122-B member, so every conversion the compiler emits
-// (the tick count's time, `Fixed::operator float`, the counts the console prints) runs it;
-// 102 B with the third entry, issue 12 item 4. bench/avr_math runs it under its own names against avr-libc's on every
-// exponent; the native tests check the portable version against the host's cast.
+// (the tick count's time, the counts the console prints) runs it, and `Fixed::operator float`
+// its third entry (102 B in all; issue 12 item 4). bench/avr_math runs it under its own names
+// against avr-libc's on every exponent; the native tests check the portable version against the
+// host's cast.
 #ifndef SMA_FLOAT_FROM_INT_HPP
 #define SMA_FLOAT_FROM_INT_HPP
 
