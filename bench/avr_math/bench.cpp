@@ -24,9 +24,17 @@
 #include <stdint.h>
 
 #include "sma/fixed.hpp"
+#include "sma/float_from_int.hpp"
 #include "sweep.hpp"
 
 using sma::Fixed;
+
+// The Q16.16 image's int -> float conversions under names of their own, so that the
+// compiler's casts here still run avr-libc's (the reference).
+extern "C" float sma_float_from_u32(uint32_t u);
+extern "C" float sma_float_from_i32(int32_t v);
+extern "C" float sma_float_from_q16_test(int32_t raw);
+__asm__(SMA_FLOAT_FROM_INT_ASM("sma_float_from_u32", "sma_float_from_i32", "sma_float_from_q16_test"));
 
 namespace {
 
@@ -86,6 +94,25 @@ int32_t random_operand() {
   return (next_random() & 1u) != 0 ? -v : v;
 }
 
+uint32_t bits_of(float f) {
+  uint32_t b;
+  __builtin_memcpy(&b, &f, 4);
+  return b;
+}
+
+// The int -> float conversions against avr-libc's casts and against the portable version.
+uint8_t float_from_int_mismatches(uint32_t u) {
+  uint8_t n = 0;
+  const uint32_t want_u = bits_of(static_cast<float>(u));
+  if (bits_of(sma_float_from_u32(u)) != want_u) ++n;
+  if (sma::fixed_detail::float_bits_from_u32(u) != want_u) ++n;
+  const int32_t v = static_cast<int32_t>(u);
+  if (bits_of(sma_float_from_i32(v)) != bits_of(static_cast<float>(v))) ++n;
+  // Q16.16: Fixed's conversion here is avr-libc's cast and the exponent change.
+  if (bits_of(sma_float_from_q16_test(v)) != bits_of(static_cast<float>(Fixed::from_raw(v)))) ++n;
+  return n;
+}
+
 // Plain C 16x16 product in a separate function, so avr-gcc uses libgcc's __umulhisi3.
 __attribute__((noinline)) uint32_t mul16_libgcc(uint16_t a, uint16_t b) {
   return static_cast<uint32_t>(a) * b;
@@ -118,6 +145,19 @@ uint8_t self_check() {
       if (sma::fixed_detail::div_raw(edges[i], edges[j]) !=
           sma::fixed_detail::div_raw_portable(edges[i], edges[j])) {
         ++mismatches;
+      }
+    }
+  }
+  // Every magnitude near its ties: 2^k - 1 .. 2^k + 2, and the odd and even halves above 2^24.
+  for (uint8_t k = 0; k < 32; ++k) {
+    const uint32_t p = UINT32_C(1) << k;
+    for (uint32_t d = 0; d < 4; ++d) mismatches += float_from_int_mismatches(p - 1u + d);
+    const uint32_t half = p >> 24;  // half of the last of 24 kept bits when the top bit is k >= 24
+    if (half != 0) {
+      for (uint32_t d = 0; d < 4; ++d) {
+        mismatches += float_from_int_mismatches(p + (2u * d + 1u) * half);
+        mismatches += float_from_int_mismatches(p + (2u * d + 1u) * half - 1u);
+        mismatches += float_from_int_mismatches(p + (2u * d + 1u) * half + 1u);
       }
     }
   }
@@ -179,6 +219,9 @@ uint8_t self_check() {
         sma::fixed_detail::raw_from_float_bits_portable(near_range)) {
       ++mismatches;
     }
+    // The int -> float conversions: every magnitude (a's random shift), both signs.
+    mismatches += float_from_int_mismatches(ua);
+    mismatches += float_from_int_mismatches(ua ^ ub);
     // The truncating conversion (the Q16.16 image's float -> integer): every exponent, and 1..2^32.
     if (sma::fixed_detail::trunc_u32_from_float_bits(ua) !=
         sma::fixed_detail::trunc_u32_from_float_bits_portable(ua)) {
@@ -237,6 +280,8 @@ int main() {
   MEASURE("float.add", g_fsink = g_fa[i] + g_fb[i]);
   MEASURE("float.mul", g_fsink = g_fa[i] * g_fb[i]);
   MEASURE("float.div", g_fsink = g_fa[i] / g_fb[i]);
+  MEASURE("float.from_int32_libc", g_fsink = static_cast<float>(g_xa[i]));
+  MEASURE("float.from_int32_sma", g_fsink = sma_float_from_i32(g_xa[i]));
   // ---- float, one operand ----
   MEASURE("base.float1", g_fsink = g_fu[i]);
   // The generic templates of scalar.hpp are what the float model runs.

@@ -21,8 +21,12 @@
 #include "sma/codegen.hpp"
 #ifdef SMA_FIRMWARE_FIXED
 #include "sma/fixed.hpp"
+#include "sma/float_from_int.hpp"
 typedef sma::Fixed Scalar;
 #define FW_VARIANT "fixed"
+// The image's int -> float conversions (sma/float_from_int.hpp) instead of avr-libc's, and
+// Fixed's (sma_float_from_q16, Fixed::operator float).
+__asm__(SMA_FLOAT_FROM_INT_ASM("__floatunsisf", "__floatsisf", "sma_float_from_q16"));
 #else
 typedef float Scalar;
 #define FW_VARIANT "float"

@@ -27,6 +27,7 @@
 #include <type_traits>
 
 #include "sma/fixed.hpp"
+#include "sma/float_from_int.hpp"
 #include "sma/reference.hpp"
 
 namespace {
@@ -153,6 +154,35 @@ TEST(FixedConversion, TruncU32FromFloatBitsIsTheCastFromOneTo2Pow32) {
     std::memcpy(&bits, &y, 4);
     EXPECT_EQ(sma::fixed_detail::trunc_u32_from_float_bits_portable(bits), 0u) << y;
   }
+}
+
+// The Q16.16 image's int -> float conversion (float_from_int.hpp; the AVR assembly is checked
+// against avr-libc by bench/avr_math): IEEE round to nearest, ties to even, as the cast.
+uint32_t float_bits(float f) {
+  uint32_t b;
+  std::memcpy(&b, &f, 4);
+  return b;
+}
+TEST(FixedConversion, FloatFromIntRoundsToNearestEvenAsTheCast) {
+  uint32_t checked = 0;
+  for (uint64_t u = 0; u <= 0xFFFFFFFFull; u += 997) {  // every magnitude, low bits spread
+    const uint32_t v = static_cast<uint32_t>(u);
+    ASSERT_EQ(sma::fixed_detail::float_bits_from_u32(v), float_bits(static_cast<float>(v))) << v;
+    const int32_t s = static_cast<int32_t>(v);
+    ASSERT_EQ(sma::fixed_detail::float_bits_from_i32(s), float_bits(static_cast<float>(s))) << s;
+    ++checked;
+  }
+  EXPECT_GT(checked, 4000000u);
+  // Ties: 2^24 + 1 (even: down), 2^24 + 3 (odd: up), the largest values (up to 2^32 and -2^31).
+  const uint32_t edge[] = {0u, 1u, 0xFFFFFFu, 0x1000000u, 0x1000001u, 0x1000003u, 0x7FFFFFC0u,
+                           0x7FFFFFFFu, 0x80000000u, 0x80000080u, 0x80000180u, 0xFFFFFF7Fu,
+                           0xFFFFFF80u, 0xFFFFFFFFu};
+  for (uint32_t v : edge) {
+    EXPECT_EQ(sma::fixed_detail::float_bits_from_u32(v), float_bits(static_cast<float>(v))) << v;
+    const int32_t s = static_cast<int32_t>(v);
+    EXPECT_EQ(sma::fixed_detail::float_bits_from_i32(s), float_bits(static_cast<float>(s))) << s;
+  }
+  EXPECT_EQ(sma::fixed_detail::float_bits_from_u32(0x1000003u), float_bits(16777220.0f));
 }
 
 TEST(FixedConversion, DoubleRoundsToNearestHalfAwayFromZero) {

@@ -149,9 +149,13 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   typedef console::LineBuffer::Status LineStatus;
 
   explicit Board(Hw hw = Hw()) : store_(hw) {
+    // The console's state and the Zeroed members are declared one after the other (increasing
+    // addresses): one memset from the first to the end of the last (AVR: one loop instead of
+    // five); initial_state() then writes the state's non-zero defaults.
+    memset(static_cast<void*>(&state_), 0,
+           static_cast<size_t>(reinterpret_cast<char*>(&v_ + 1) - reinterpret_cast<char*>(&state_)));
     initial_safety(&safety_.x);
     initial_state(&state_.s);
-    state_.s.tlim_C = Rig::t_limit_C();
 #if SMA_CONSOLE_PREVIEW
     if (kPreview) state_.s.mode = state_.s.loop_mode = Mode::Preview;
 #endif
@@ -460,10 +464,11 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     uint32_t end_ticks;  // its length in ticks
   };
   // A member whose initial value is all zero bytes (Live, LineBuffer, Reply: every default is 0),
-  // set by one memset instead of a store per field (AVR: ~4 B of flash per byte of the board).
+  // set by the constructor's memset instead of a store per field (AVR: ~4 B of flash per byte of
+  // the board).
   template <class X>
   union Zeroed {
-    Zeroed() { memset(static_cast<void*>(&x), 0, sizeof(X)); }
+    Zeroed() {}
     ~Zeroed() {}
     X x;
   };
@@ -511,7 +516,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     return to_double(x);
   }
   // Seconds since the run's start at its tick k (the training plan, the preview, status).
-  static float t_of(uint32_t k) { return static_cast<float>(k) * static_cast<float>(1.0 / Rig::tick_hz()); }
+  static SMA_NOINLINE float t_of(uint32_t k) { return static_cast<float>(k) * static_cast<float>(1.0 / Rig::tick_hz()); }
   // The reference at t (one copy of ReferenceGen::at for the tick and the preview's future).
   SMA_NOINLINE T ref_at(float t) { return gen().at(t); }
   // The preview's config: the rig's tick, V_max, PWM and (if it names one) steps_per_tick.
@@ -591,7 +596,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   // The latch with the rig's config: on AVR a copy of a constant in flash (its stores cost
   // ~100 B of the static constructor).
 #if defined(__AVR__)
-  static SMA_NOINLINE void initial_safety(SafetyLatch<T>* s) {
+  static void initial_safety(SafetyLatch<T>* s) {
     static constexpr SafetyLatch<T> kSafety PROGMEM = SafetyLatch<T>(safety_config());
     memcpy_P(s, &kSafety, sizeof(SafetyLatch<T>));
   }
@@ -599,19 +604,27 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   static void initial_safety(SafetyLatch<T>* s) { new (s) SafetyLatch<T>(safety_config()); }
 #endif
 
-  // The console's initial state: on AVR zeroes, and copies of the constants in flash with
-  // non-zero defaults (constructed in place, its ~250 bytes of defaults cost a store each: ~1 KB
-  // of the static constructor; copied whole, the trajectory's zero points took 129 B of flash).
+  // The console's initial state: the console's defaults with the latch's limit of the rig. On
+  // AVR, over the constructor's zeroes, copies of the constants in flash with non-zero defaults
+  // (constructed in place, its ~250 bytes of defaults cost a store each: ~1 KB of the static
+  // constructor; copied whole, the trajectory's zero points took 129 B of flash).
+  static constexpr console::Settings initial_settings() {
+    console::Settings c{};
+    c.tlim_C = Rig::t_limit_C();
+    return c;
+  }
 #if defined(__AVR__)
-  static SMA_NOINLINE void initial_state(console::State* s) {
-    static const console::Settings kSettings PROGMEM = console::Settings();
+  static void initial_state(console::State* s) {
+    static constexpr console::Settings kSettings PROGMEM = initial_settings();
     static constexpr RefShape kShape PROGMEM = console::trajectory_shape();
-    memset(static_cast<void*>(s), 0, sizeof(console::State));
     memcpy_P(static_cast<console::Settings*>(s), &kSettings, sizeof(console::Settings));
     memcpy_P(static_cast<RefShape*>(&s->traj), &kShape, sizeof(RefShape));
   }
 #else
-  static void initial_state(console::State* s) { new (s) console::State(); }
+  static void initial_state(console::State* s) {
+    new (s) console::State();
+    static_cast<console::Settings&>(*s) = initial_settings();
+  }
 #endif
 
   // The models from the active set in EEPROM, or the paper's values when there is none. The
@@ -760,6 +773,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   ModelStore models_;
   GenStore gen_;
   SafetyStore safety_;
+  // From state_ to v_: zeroed by the constructor (one memset; keep them together).
   StateStore state_;
   Zeroed<console::LineBuffer> line_;
   Zeroed<console::Reply> reply_;

@@ -47,6 +47,11 @@
 #define SMA_FIXED_ALWAYS_INLINE inline
 #endif
 
+#if defined(__AVR__) && defined(SMA_FIRMWARE_FIXED)
+// raw 2^-16 as a float: sma/float_from_int.hpp's assembly, defined in the Q16.16 image's main.cpp.
+extern "C" float sma_float_from_q16(int32_t raw);
+#endif
+
 namespace sma {
 
 // ---- integer helpers ------------------------------------------------------------------------
@@ -544,16 +549,16 @@ inline int32_t sub_raw(int32_t a, int32_t b) { return sub_raw_portable(a, b); }
 #endif
 
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
-// Assembly shared by the multiply and the division: x = -x (4 bytes; ff an operand holding 0xFF),
-// and x = T ? 0x80000000 : 0x7FFFFFFF, branching to `done` when T is set.
-#define SMA_FIXED_AVR_NEGATE(x, ff)                          \
+// Assembly shared by the multiply and the division: x = -x (4 bytes in r16..r31), and
+// x = T ? 0x80000000 : 0x7FFFFFFF, branching to `done` when T is set.
+#define SMA_FIXED_AVR_NEGATE(x)                              \
   "com  %D[" x "]  \n\t"                                     \
   "com  %C[" x "]  \n\t"                                     \
   "com  %B[" x "]  \n\t"                                     \
   "neg  %A[" x "]  \n\t"                                     \
-  "sbc  %B[" x "], %[" ff "]  \n\t"                          \
-  "sbc  %C[" x "], %[" ff "]  \n\t"                          \
-  "sbc  %D[" x "], %[" ff "]  \n\t"
+  "sbci %B[" x "], 0xFF  \n\t"                               \
+  "sbci %C[" x "], 0xFF  \n\t"                               \
+  "sbci %D[" x "], 0xFF  \n\t"
 #define SMA_FIXED_AVR_SATURATED(x, done)                     \
   "clr  %A[" x "]  \n\t"                                     \
   "clr  %B[" x "]  \n\t"                                     \
@@ -817,66 +822,70 @@ inline int32_t div_raw_portable(int32_t a, int32_t b) {
 #if defined(__AVR__)
 // The same on the AVR in one block (~65 instructions; the C version: ~160, fourteen registers
 // saved). The quotient's magnitude is at most 2^31 after rounding (the remainder starts below
-// |b|): negated it is in range, positive it saturates only at 2^31.
+// |b|): negated it is in range, positive it saturates only at 2^31. b = 0 needs no test of its
+// own: |a| >> 15 >= 0 = |b| takes the saturation, signed as a (the quotient's sign bit is a's).
 __attribute__((noinline)) inline int32_t div_raw(int32_t a, int32_t b) {
-  if (b == 0) return saturated(a < 0);
-  uint32_t ua = static_cast<uint32_t>(a);  // |a|, then the dividend bits and the quotient
-  uint32_t ub = static_cast<uint32_t>(b);  // |b|
-  uint32_t r;                              // the remainder
-  uint8_t k;                               // 0xFF for the negations, then the step count
+  // Twelve registers, the call-clobbered ones: a and b where the call brings them (the quotient
+  // returns in a's), the remainder in X and Z, the step count in r0. None saved.
+  register uint32_t ua __asm__("r22") = static_cast<uint32_t>(a);  // |a|, the dividend bits, the quotient
+  register uint32_t ub __asm__("r18") = static_cast<uint32_t>(b);  // |b|
+  register uint16_t rl __asm__("r26");  // the remainder, low half
+  register uint16_t rh __asm__("r30");  // the remainder, high half
   __asm__(
-      "mov  %[k], %D[a]   \n\t"
-      "eor  %[k], %D[b]   \n\t"
-      "bst  %[k], 7       \n\t"  // T = the quotient's sign
-      "ldi  %[k], 0xFF    \n\t"
+      "mov  r0, %D[a]     \n\t"
+      "eor  r0, %D[b]     \n\t"
+      "bst  r0, 7         \n\t"  // T = the quotient's sign
       "sbrs %D[a], 7      \n\t"
       "rjmp 1f            \n\t"
-      SMA_FIXED_AVR_NEGATE("a", "k")
+      SMA_FIXED_AVR_NEGATE("a")
       "1:                 \n\t"
       "sbrs %D[b], 7      \n\t"
       "rjmp 2f            \n\t"
-      SMA_FIXED_AVR_NEGATE("b", "k")
+      SMA_FIXED_AVR_NEGATE("b")
       "2:                 \n\t"  // r = |a| >> 15, the dividend bits left = |a| << 17
-      "mov  %A[r], %C[a]  \n\t"
-      "mov  %B[r], %D[a]  \n\t"
-      "clr  %C[r]         \n\t"
-      "clr  %D[r]         \n\t"
+      "mov  %A[rl], %C[a]  \n\t"
+      "mov  %B[rl], %D[a]  \n\t"
+      "clr  %A[rh]         \n\t"
+      "clr  %B[rh]         \n\t"
       "lsl  %A[a]         \n\t"
       "rol  %B[a]         \n\t"
-      "rol  %A[r]         \n\t"
-      "rol  %B[r]         \n\t"
-      "rol  %C[r]         \n\t"
+      "rol  %A[rl]         \n\t"
+      "rol  %B[rl]         \n\t"
+      "rol  %A[rh]         \n\t"
       "mov  %D[a], %B[a]  \n\t"
       "mov  %C[a], %A[a]  \n\t"
       "clr  %B[a]         \n\t"
       "clr  %A[a]         \n\t"
-      "cp   %A[r], %A[b]  \n\t"  // |quotient| >= 2^15: saturate
-      "cpc  %B[r], %B[b]  \n\t"
-      "cpc  %C[r], %C[b]  \n\t"
-      "cpc  %D[r], %D[b]  \n\t"
+      "cp   %A[rl], %A[b]  \n\t"  // |quotient| >= 2^15: saturate
+      "cpc  %B[rl], %B[b]  \n\t"
+      "cpc  %A[rh], %C[b]  \n\t"
+      "cpc  %B[rh], %D[b]  \n\t"
       "brsh 7f            \n\t"
-      "ldi  %[k], 32      \n\t"
+      "clr  r0            \n\t"  // 32 steps
+      "inc  r0            \n\t"
+      "swap r0            \n\t"
+      "lsl  r0            \n\t"
       "3:                 \n\t"  // a step: r < |b| <= 2^31, so 2 r + 1 fits
       "lsl  %A[a]         \n\t"
       "rol  %B[a]         \n\t"
       "rol  %C[a]         \n\t"
       "rol  %D[a]         \n\t"
-      "rol  %A[r]         \n\t"
-      "rol  %B[r]         \n\t"
-      "rol  %C[r]         \n\t"
-      "rol  %D[r]         \n\t"
-      "cp   %A[r], %A[b]  \n\t"
-      "cpc  %B[r], %B[b]  \n\t"
-      "cpc  %C[r], %C[b]  \n\t"
-      "cpc  %D[r], %D[b]  \n\t"
+      "rol  %A[rl]         \n\t"
+      "rol  %B[rl]         \n\t"
+      "rol  %A[rh]         \n\t"
+      "rol  %B[rh]         \n\t"
+      "cp   %A[rl], %A[b]  \n\t"
+      "cpc  %B[rl], %B[b]  \n\t"
+      "cpc  %A[rh], %C[b]  \n\t"
+      "cpc  %B[rh], %D[b]  \n\t"
       "brlo 4f            \n\t"
-      "sub  %A[r], %A[b]  \n\t"
-      "sbc  %B[r], %B[b]  \n\t"
-      "sbc  %C[r], %C[b]  \n\t"
-      "sbc  %D[r], %D[b]  \n\t"
+      "sub  %A[rl], %A[b]  \n\t"
+      "sbc  %B[rl], %B[b]  \n\t"
+      "sbc  %A[rh], %C[b]  \n\t"
+      "sbc  %B[rh], %D[b]  \n\t"
       "inc  %A[a]         \n\t"  // the quotient bit (bit 0 is clear after the shift)
       "4:                 \n\t"
-      "dec  %[k]          \n\t"
+      "dec  r0            \n\t"
       "brne 3b            \n\t"
       "lsr  %D[a]         \n\t"  // round half away from zero on the magnitude
       "ror  %C[a]         \n\t"
@@ -891,13 +900,12 @@ __attribute__((noinline)) inline int32_t div_raw(int32_t a, int32_t b) {
       "rjmp 9f            \n\t"
       "rjmp 7f            \n\t"
       "5:                 \n\t"  // negative: -m, -2^31 included
-      "ldi  %[k], 0xFF    \n\t"
-      SMA_FIXED_AVR_NEGATE("a", "k")
+      SMA_FIXED_AVR_NEGATE("a")
       "rjmp 9f            \n\t"
       "7:                 \n\t"  // saturate: T ? 0x80000000 : 0x7FFFFFFF
       SMA_FIXED_AVR_SATURATED("a", "9f")
       "9:                 \n\t"
-      : [a] "+r"(ua), [b] "+r"(ub), [r] "=&r"(r), [k] "=&d"(k));
+      : [a] "+d"(ua), [b] "+d"(ub), [rl] "=&r"(rl), [rh] "=&r"(rh));
   return as_signed(ua);
 }
 #else
@@ -938,7 +946,11 @@ class Fixed {
   static constexpr Fixed from_raw(int32_t r) { return Fixed(RawTag(), r); }
   constexpr int32_t raw() const { return raw_; }
 
-#if defined(__AVR__)
+#if defined(__AVR__) && defined(SMA_FIRMWARE_FIXED)
+  // The Q16.16 image: the conversion's own entry (sma/float_from_int.hpp, defined by main.cpp).
+  SMA_FIXED_ALWAYS_INLINE explicit operator float() const { return sma_float_from_q16(raw_); }
+  explicit operator double() const { return static_cast<double>(static_cast<float>(*this)); }
+#elif defined(__AVR__)
   // double is float on the AVR: one integer conversion and an exponent change. Out of line:
   // one copy for the telemetry's and the console's conversions.
   __attribute__((noinline)) explicit operator float() const {
@@ -1258,32 +1270,36 @@ inline uint16_t isqrt32_portable(uint32_t n, uint32_t& rem) {
 // last four (its byte 0). The bits of n are shifted out of the top of those bytes straight into
 // the remainder, never a 32-bit shift of n.
 __attribute__((noinline)) inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
-  uint32_t r;  // the remainder (3 bytes used)
-  uint32_t s;  // 4 R (3 bytes used); its top byte counts the steps
+  // Ten registers, placed so that with rem's address (Z) they are the call-clobbered ones: none
+  // saved (4R's bytes apart: a 3-byte value starts at an even register). The steps are counted
+  // in a byte not yet (r's top) or no longer (n's top) used, 0 again when they end.
+  register uint32_t nr __asm__("r22") = n;
+  register __uint24 r __asm__("r18");  // the remainder
+  register uint8_t s0 __asm__("r26");  // 4 R
+  register uint8_t s1 __asm__("r27");
+  register uint8_t s2 __asm__("r21");
   __asm__(
       "clr  %A[r]         \n\t"
       "clr  %B[r]         \n\t"
-      "clr  %C[r]         \n\t"
-      "clr  %D[r]         \n\t"
-      "clr  %A[s]         \n\t"
-      "clr  %B[s]         \n\t"
-      "clr  %C[s]         \n\t"
-      "ldi  %D[s], 4      \n\t"
+      "ldi  %C[r], 4      \n\t"
+      "clr  %[s0]         \n\t"
+      "clr  %[s1]         \n\t"
+      "clr  %[s2]         \n\t"
       "1:                 \n\t"  // bits 15..12 of the root from n's byte 3
       "lsl  %D[n]         \n\t"
       "rol  %A[r]         \n\t"
       "lsl  %D[n]         \n\t"
       "rol  %A[r]         \n\t"
-      "cp   %A[s], %A[r]  \n\t"  // 4R < r: the bit is 1
+      "cp   %[s0], %A[r]  \n\t"  // 4R < r: the bit is 1
       "brcc 2f            \n\t"
       "sec                \n\t"  // r -= 4R + 1
-      "sbc  %A[r], %A[s]  \n\t"
-      "ori  %A[s], 2      \n\t"
+      "sbc  %A[r], %[s0]  \n\t"
+      "ori  %[s0], 2      \n\t"
       "2:                 \n\t"
-      "lsl  %A[s]         \n\t"
-      "dec  %D[s]         \n\t"
+      "lsl  %[s0]         \n\t"
+      "dec  %C[r]         \n\t"
       "brne 1b            \n\t"
-      "ldi  %D[s], 8      \n\t"
+      "ldi  %D[n], 8      \n\t"  // n's top byte is shifted out
       "3:                 \n\t"  // bits 11..4 from n's bytes 2, 1
       "lsl  %B[n]         \n\t"
       "rol  %C[n]         \n\t"
@@ -1293,19 +1309,19 @@ __attribute__((noinline)) inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
       "rol  %C[n]         \n\t"
       "rol  %A[r]         \n\t"
       "rol  %B[r]         \n\t"
-      "cp   %A[s], %A[r]  \n\t"
-      "cpc  %B[s], %B[r]  \n\t"
+      "cp   %[s0], %A[r]  \n\t"
+      "cpc  %[s1], %B[r]  \n\t"
       "brcc 4f            \n\t"
       "sec                \n\t"
-      "sbc  %A[r], %A[s]  \n\t"
-      "sbc  %B[r], %B[s]  \n\t"
-      "ori  %A[s], 2      \n\t"
+      "sbc  %A[r], %[s0]  \n\t"
+      "sbc  %B[r], %[s1]  \n\t"
+      "ori  %[s0], 2      \n\t"
       "4:                 \n\t"
-      "lsl  %A[s]         \n\t"
-      "rol  %B[s]         \n\t"
-      "dec  %D[s]         \n\t"
+      "lsl  %[s0]         \n\t"
+      "rol  %[s1]         \n\t"
+      "dec  %D[n]         \n\t"
       "brne 3b            \n\t"
-      "ldi  %D[s], 4      \n\t"
+      "ldi  %D[n], 4      \n\t"
       "5:                 \n\t"  // bits 3..0 from n's byte 0
       "lsl  %A[n]         \n\t"
       "rol  %A[r]         \n\t"
@@ -1315,30 +1331,31 @@ __attribute__((noinline)) inline uint16_t isqrt32(uint32_t n, uint32_t& rem) {
       "rol  %A[r]         \n\t"
       "rol  %B[r]         \n\t"
       "rol  %C[r]         \n\t"
-      "cp   %A[s], %A[r]  \n\t"
-      "cpc  %B[s], %B[r]  \n\t"
-      "cpc  %C[s], %C[r]  \n\t"
+      "cp   %[s0], %A[r]  \n\t"
+      "cpc  %[s1], %B[r]  \n\t"
+      "cpc  %[s2], %C[r]  \n\t"
       "brcc 6f            \n\t"
       "sec                \n\t"
-      "sbc  %A[r], %A[s]  \n\t"
-      "sbc  %B[r], %B[s]  \n\t"
-      "sbc  %C[r], %C[s]  \n\t"
-      "ori  %A[s], 2      \n\t"
+      "sbc  %A[r], %[s0]  \n\t"
+      "sbc  %B[r], %[s1]  \n\t"
+      "sbc  %C[r], %[s2]  \n\t"
+      "ori  %[s0], 2      \n\t"
       "6:                 \n\t"
-      "lsl  %A[s]         \n\t"
-      "rol  %B[s]         \n\t"
-      "rol  %C[s]         \n\t"
-      "dec  %D[s]         \n\t"
+      "lsl  %[s0]         \n\t"
+      "rol  %[s1]         \n\t"
+      "rol  %[s2]         \n\t"
+      "dec  %D[n]         \n\t"
       "brne 5b            \n\t"
-      "lsr  %C[s]         \n\t"  // R = 4R / 4
-      "ror  %B[s]         \n\t"
-      "ror  %A[s]         \n\t"
-      "lsr  %C[s]         \n\t"
-      "ror  %B[s]         \n\t"
-      "ror  %A[s]         \n\t"
-      : [r] "=&r"(r), [s] "=&d"(s), [n] "+r"(n));
+      "lsr  %[s2]         \n\t"  // R = 4R / 4
+      "ror  %[s1]         \n\t"
+      "ror  %[s0]         \n\t"
+      "lsr  %[s2]         \n\t"
+      "ror  %[s1]         \n\t"
+      "ror  %[s0]         \n\t"
+      : [r] "=&d"(r), [s0] "=&d"(s0), [s1] "=&r"(s1), [s2] "=&r"(s2), [n] "+d"(nr));
+  (void)s2;
   rem = r;
-  return static_cast<uint16_t>(s);
+  return static_cast<uint16_t>((s1 << 8) | s0);
 }
 #else
 inline uint16_t isqrt32(uint32_t n, uint32_t& rem) { return isqrt32_portable(n, rem); }

@@ -22,6 +22,17 @@
 // temperature). The caller applies k^ to the model wire: eq 1's loss term k^ G (T - T_a) in its
 // temperature step and in eq 17 (loss_correction()).
 //
+// A latent heat the model lacks (eq 1's - L deps/dt) opens a gap of its own while the wires
+// transform, and it grows with the transformation as a heat-loss error's does: read as k, it
+// puts a gain the wire does not have into the model wire. So the gap has a third term,
+// (L - L^) SL with SL = dT/dL along the model wire's path,
+//
+//     C dSL/dt = -k^ G SL - deps/dt,     z = k S + (L - L^) SL + delta,
+//
+// and z is regressed on S and SL together (latent_spread > 0), with L - L^ >= -L^ (a wire has
+// no negative latent heat). L - L^ only keeps k clean; the model wire does not use it (a fit's
+// curves whose span is not the wire's open a gap along the transformation as well).
+//
 // The regression's sums: in float and double the weighted means of w, w S, w S^2, w z, w S z
 // (RawMoments). Q16.16 cannot hold those: the weights are ~1e-4..2.5e-3 (mm/K)^2 and the means
 // move by ~1e-6 a sample, below its LSB (1.5e-5), and the products mw mwss, mws^2 cancel to a
@@ -45,32 +56,61 @@ __attribute__((noinline)) T low_pass(T m, T a, T x) {
   return m + a * (x - m);
 }
 
-// The least-squares slope of z over S with weights w, exponential forgetting a a sample and the
-// ridge prior of a spread of S of 1 K towards slope 1 (HeatLossObserver::add):
+// k of the 2x2 system below (RawMoments; Cramer's rule), with the latent heat's coefficient l
+// not below l_min (a wire has no negative latent heat: l_min = -the model's): where the free
+// solution's l is below it, l is held there and k is the slope of z - l_min SL over S. False
+// when the system is singular.
+template <class T>
+bool solve_gain(T vs, T vl, T csl, T csz, T clz, T l_min, T& k, T& l) {
+  const T den = vs * vl - csl * csl;
+  if (!(den > T(0))) return false;
+  if (vs * clz - csl * csz < l_min * den) {
+    k = (csz - l_min * csl) / vs;
+    l = l_min;
+  } else {
+    k = (csz * vl - csl * clz) / den;
+    l = (vs * clz - csl * csz) / den;
+  }
+  return true;
+}
+
+// The least-squares slope of z over S with weights w and exponential forgetting a a sample,
+// beside a second regressor SL (the latent heat's sensitivity, HeatLossObserver), with ridge
+// priors: a spread of S of 1 K towards slope 1, a spread of SL of sigma_L towards no latent
+// heat (HeatLossObserver::add). In the weighted (co)variances:
 //
-//     k = (cov_w(S, z) + 1 K^2) / (var_w(S) + 1 K^2)
+//     [ var(S) + 1    cov(S, SL)         ] [ k ]   [ cov(S, z) + 1 ]
+//     [ cov(S, SL)    var(SL) + sigma_L^2] [ l ] = [ cov(SL, z)    ]
 //
-// add() takes a sample and gives k; false while there is no estimate (no sample yet).
+// solved for k (Cramer). add() takes a sample and gives k; false while there is no estimate.
 template <class T>
 struct RawMoments {
+  static constexpr bool kLatent = true;  // takes the latent heat's regressor
   T mw, mws, mwss, mwz, mwsz;  // weighted means: w, w S, w S^2, w z, w S z
+  T mwl, mwll, mwsl, mwlz;     // and w SL, w SL^2, w S SL, w SL z
 
-  void reset() { mw = mws = mwss = mwz = mwsz = T(0); }
+  void reset() { mw = mws = mwss = mwz = mwsz = mwl = mwll = mwsl = mwlz = T(0); }
 
   // w = slope^2 (mm/K)^2. With everything multiplied by mw^2: no division but the last.
-  bool add(T slope, T S, T z, T a, T& k) {
+  bool add(T slope, T S, T SL, T z, T a, T prior_L, T l_min, T& k, T& l) {
     const T w = slope * slope;
-    const T ws = w * S;
+    const T ws = w * S, wl = w * SL;
     mw = low_pass(mw, a, w);
     mws = low_pass(mws, a, ws);
     mwss = low_pass(mwss, a, ws * S);
     mwz = low_pass(mwz, a, w * z);
     mwsz = low_pass(mwsz, a, ws * z);
-    const T var = mw * mwss - mws * mws;  // mw^2 x the weighted variance of S, K^2
-    const T prior = mw * mw;              // mw^2 x (1 K)^2
-    if (!(var + prior > T(0))) return false;
-    k = (mw * mwsz - mws * mwz + prior) / (var + prior);
-    return true;
+    mwl = low_pass(mwl, a, wl);
+    mwll = low_pass(mwll, a, wl * SL);
+    mwsl = low_pass(mwsl, a, ws * SL);
+    mwlz = low_pass(mwlz, a, wl * z);
+    const T prior = mw * mw;  // mw^2 x (1 K)^2
+    const T vs = mw * mwss - mws * mws + prior;  // mw^2 x (the weighted variance of S + 1 K^2)
+    const T vl = mw * mwll - mwl * mwl + prior * prior_L;
+    const T csl = mw * mwsl - mws * mwl;
+    const T csz = mw * mwsz - mws * mwz + prior;
+    const T clz = mw * mwlz - mwl * mwz;
+    return solve_gain(vs, vl, csl, csz, clz, l_min, k, l);
   }
 };
 
@@ -88,11 +128,13 @@ struct RawMoments {
 // (test_preview_heat_loss.cpp).
 template <class T>
 struct CentredMoments {
+  static constexpr bool kLatent = false;  // z over S alone (SL, its prior and l_min unused)
   T n, mS, mz, vS, cSz;  // sum of weights, weighted means of S and z (K), var(S), cov(S, z) (K^2)
 
   void reset() { n = mS = mz = vS = cSz = T(0); }
 
-  bool add(T slope, T S, T z, T a, T& k) {
+  bool add(T slope, T S, T /*SL*/, T z, T a, T /*prior_L*/, T /*l_min*/, T& k, T& l) {
+    l = T(0);
     const T u = slope * T(32);
     const T w = u * u;
     n = n + w - a * n;
@@ -120,29 +162,42 @@ class HeatLossObserver {
  public:
   // dt_s: the tick (tick()); sample_s: time between add() samples; memory_s: the regression's
   // forgetting time; adapt_s: time constant of the gain's move to the regression's slope;
-  // dead_zone: |k - 1| below it reads as 1; k_lo..k_hi: the plausible range. (Always inlined:
-  // out of line, avr-gcc 5.4 makes the Q16.16 one 320 B more flash.)
+  // dead_zone: |k - 1| below it reads as 1; latent_spread: the latent heat's regressor's prior,
+  // a spread of SL (K/J; 0: no such regressor); model_latent_J: the model's latent heat; k_lo..k_hi:
+  // the plausible range. (Always inlined: out of line, avr-gcc 5.4 makes the Q16.16 one 320 B more
+  // flash.)
   __attribute__((always_inline)) HeatLossObserver(const Params& p, double dt_s, double sample_s, double memory_s,
-                                                  double adapt_s, double dead_zone, double k_lo = 0.75,
+                                                  double adapt_s, double dead_zone, double latent_spread = 0.0,
+                                                  double model_latent_J = 0.0, double k_lo = 0.75,
                                                   double k_hi = 1.33)
       : c_(from_double<T>(dt_s * p.conductance() / p.heat_capacity())),
+        e_(from_double<T>(dt_s / p.heat_capacity())),
         a_(from_double<T>(1.0 - decay_factor(sample_s / memory_s))),
         b_(from_double<T>(1.0 - decay_factor(sample_s / adapt_s))),
         k_lo_(from_double<T>(k_lo)),
         k_hi_(from_double<T>(k_hi)),
-        dead_(from_double<T>(dead_zone)) {
+        dead_(from_double<T>(dead_zone)),
+        l_min_(from_double<T>(-model_latent_J)),
+        prior_L_(from_double<T>(latent_spread > 0.0 ? latent_spread * latent_spread : 1.0)),
+        latent_(latent_spread > 0.0 && MomentsFor<T>::type::kLatent) {
     reset();
   }
 
   void reset() {
     m_.reset();
     S_ = T(0);
+    SL_ = T(0);
     k_ = T(1);
     kc_ = T(0);
   }
 
-  // One tick of the sensitivity S, from the model wire's temperature rise T_model - T_a (K).
-  void tick(T rise) { S_ = S_ - c_ * (k_ * S_ + rise); }
+  // One tick of the sensitivities S and SL, from the model wire's temperature rise T_model - T_a
+  // (K) and the rate of its fraction (1/s). (Without the latent regressor SL stays 0, and the
+  // regression is z over S alone.)
+  void tick(T rise, T deps_dt = T(0)) {
+    S_ = S_ - c_ * (k_ * S_ + rise);
+    if (latent_) SL_ = SL_ - c_ * k_ * SL_ - e_ * deps_dt;
+  }
 
   // One sample while both wires transform on the heating curve: gap = T_wire - T_model seen
   // through the position (K), slope = the curve's position per kelvin (mm/K). (Always inlined
@@ -153,8 +208,9 @@ class HeatLossObserver {
     // The slope of z over S (ridge regression, weight slope^2), pulled towards k = 1 by a prior
     // worth a spread of S of 1 K: data that span few temperatures cannot tell the slope from the
     // intercept (the first transient from ambient spans only a few kelvin).
-    T k_ls;
-    if (!m_.add(slope, S_, z, a_, k_ls)) return;
+    T k_ls, l_ls;
+    if (!m_.add(slope, S_, SL_, z, a_, prior_L_, l_min_, k_ls, l_ls)) return;
+    l_ = l_ls;
     k_ls = clamp(k_ls, k_lo_, k_hi_);
     if (!is_finite(k_ls)) return;
     // Within the dead zone the model's own h is kept: the slope's bias from the loop's transients
@@ -165,16 +221,23 @@ class HeatLossObserver {
   }
 
   T gain() const { return k_; }
+  T latent() const { return l_; }
   T sensitivity() const { return S_; }  // dT/dk along the model wire's path, K
   // (k^ - 1) G dt / C: the model wire's extra loss per tick and kelvin above ambient.
   T loss_correction() const { return kc_; }
 
  private:
   T c_;  // G dt / C
+  T e_;  // dt / C
   T a_, b_, k_lo_, k_hi_, dead_;
+  T l_min_;    // -the model's latent heat, J: the wire's latent heat is not negative
+  T prior_L_;  // the latent regressor's prior, (K/J)^2
+  bool latent_;
   typename MomentsFor<T>::type m_;  // the regression's sums
   T S_;                             // dT/dk along the model wire's path, K
+  T SL_;                            // dT/dL along it, K/J
   T k_, kc_;
+  T l_ = T(0);
 };
 
 }  // namespace sma

@@ -143,6 +143,10 @@ struct PreviewConfig {
   // Ticks from a command to the measurement that first sees it: the PWM of the next tick plus
   // the host's rig-like computation delay (a board: its PWM tick and ADC averaging, ~1.5).
   double heat_gain_lag_ticks = 2.0;
+  // The latent heat the model lacks (eq 1's L deps/dt) slows the wire's transformation like a
+  // larger heat loss: the observer regresses the gap on the latent heat's sensitivity dT/dL too,
+  // with a ridge prior worth a spread of it of this much (K/J), so that k is not given it (0 = off).
+  double heat_gain_latent_spread = 0.07;
   // The lag guard (a): in a hold, the measured position's move over ~0.4 s (two low-passes,
   // 0.2 s and 0.6 s) beyond this, towards the model wire, marks a lag: d does not take it
   // (0 = off).
@@ -180,6 +184,8 @@ struct PreviewConfig {
     if (!(heat_gain_dead_zone >= 0.0 && heat_gain_dead_zone <= 0.2)) return "heat_gain_dead_zone must be in 0..0.2";
     if (!(heat_gain_lag_ticks >= 0.0 && heat_gain_lag_ticks <= 10.0)) return "heat_gain_lag_ticks must be in 0..10";
     if (!(heat_gain_adapt_s >= 0.1 && heat_gain_adapt_s <= 1000.0)) return "heat_gain_adapt_s must be in 0.1..1000";
+    if (!(heat_gain_latent_spread >= 0.0 && heat_gain_latent_spread <= 10.0))
+      return "heat_gain_latent_spread must be in 0..10";
     if (!(lag_guard_mm >= 0.0 && lag_guard_mm <= 0.1)) return "lag_guard_mm must be in 0..0.1";
     if (!(curve_shift_tau_s == 0.0 || (curve_shift_tau_s >= dt && curve_shift_tau_s <= 100.0)))
       return "curve_shift_tau_s must be 0 or in dt..100";
@@ -237,7 +243,7 @@ class PreviewCore {
         v_supply_(cfg.v_supply),
         grid_ticks_(from_double<T>(cfg.grid_s / cfg.dt)),
         heat_(p, cfg.dt, kObserveTicks * cfg.dt, cfg.heat_gain_memory_s > 0.0 ? cfg.heat_gain_memory_s : 1.0,
-              cfg.heat_gain_adapt_s, cfg.heat_gain_dead_zone),
+              cfg.heat_gain_adapt_s, cfg.heat_gain_dead_zone, cfg.heat_gain_latent_spread, fx.latent_heat_J),
         observe_heat_(cfg.heat_gain_memory_s > 0.0),
         lag_ticks_(from_double<T>(cfg.heat_gain_lag_ticks)),
         far_step_s_(cfg.lookahead_s / kFar),
@@ -432,6 +438,7 @@ class PreviewCore {
   bool heating() const { return heating_; }       // the branch the controller drives
   uint16_t plans() const { return plans_; }       // completed plans (tests, telemetry)
   T heat_loss_gain() const { return heat_.gain(); }  // the wire's heat loss against the model's
+  T heat_latent() const { return heat_.latent(); }  // J: the regression's latent heat beyond the model's
   T heating_shift() const { return shift_; }  // K: the wire at T is where the model's curve has T + shift
 
  private:
@@ -624,7 +631,7 @@ class PreviewCore {
   // prepare_next_tick(). Two multiplies less in the control section. (A reset() between the
   // tick and prepare_next_tick() drops that tick's step of S: the model wire restarts anyway.)
   SMA_PREVIEW_NOINLINE void sensitivity_tick() {
-    if (observing()) heat_.tick(T_est_ - thermal_.T_a);
+    if (observing()) heat_.tick(T_est_ - thermal_.T_a, deps_);
   }
 
   // The highest PWM level at or below v (the heater's duty = (V / v_supply)^2). A hundredth of
