@@ -54,7 +54,7 @@ inline void reset_to_initial_state(sma::Plant& plant, const Model& m, double eps
     const sma::PhaseCurves<double> curves(m.p);
     plant.reset(curves.heat_temperature(eps), eps);
   } else {
-    plant.reset(m.p.T_amb + m.fx.ambient_offset_K, 0.0);
+    plant.reset(m.fx.ambient_C(m.p.T_amb), 0.0);
   }
 }
 

@@ -247,7 +247,7 @@ inline Guess initial_guess(const std::vector<double>& t, const std::vector<doubl
   }
   // Eq 1 cannot tell the heating power's scale (see the top): a nominal band fixes it.
   if (std::isfinite(o.band_hint_C)) {
-    const double Ta = best.p.T_amb + best.fx.ambient_offset_K;
+    const double Ta = best.fx.ambient_C(best.p.T_amb);
     const double mid = 0.5 * (best.p.T_AS + best.p.T_AF);
     const double k = (o.band_hint_C - Ta) / (mid - Ta);
     if (k > 0.05 && k < 20.0) {

@@ -86,10 +86,10 @@ class Plant {
         rig_(rig),
         thermal_(p, fx),
         curves_(p),
-        hyst_(curves_, p.T_amb + fx.ambient_offset_K, 0.0),
+        hyst_(curves_, fx.ambient_C(p.T_amb), 0.0),
         mech_(p, fx),
         noise_(rig.seed) {
-    reset(p.T_amb + fx.ambient_offset_K, 0.0);
+    reset(fx.ambient_C(p.T_amb), 0.0);
   }
   Plant(const Plant&) = delete;  // hyst_ points into curves_
   Plant& operator=(const Plant&) = delete;

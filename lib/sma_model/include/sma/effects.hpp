@@ -47,6 +47,8 @@ struct Effects {
   // 1/K): the displacement is D = g eps - 1000 alpha L0 (T - T_a) mm (eq 12 holds at ambient).
   double thermal_expansion_per_K = 0.0;
 
+  // The wire's true ambient (ambient_offset: the air around it is T_a + offset, not the room's).
+  double ambient_C(double T_amb) const { return T_amb + ambient_offset_K; }
   bool thermal_active() const { return ambient_offset_K != 0.0 || nonlinear_thermal(); }
   // Effects that make eq 1 non-linear (an ambient offset only shifts T_a).
   bool nonlinear_thermal() const {

@@ -208,9 +208,8 @@ class HeatLossObserver {
     // The slope of z over S (ridge regression, weight slope^2), pulled towards k = 1 by a prior
     // worth a spread of S of 1 K: data that span few temperatures cannot tell the slope from the
     // intercept (the first transient from ambient spans only a few kelvin).
-    T k_ls, l_ls;
+    T k_ls, l_ls;  // l_ls: the latent heat beyond the model's, which only keeps k clean
     if (!m_.add(slope, S_, SL_, z, a_, prior_L_, l_min_, k_ls, l_ls)) return;
-    l_ = l_ls;
     k_ls = clamp(k_ls, k_lo_, k_hi_);
     if (!is_finite(k_ls)) return;
     // Within the dead zone the model's own h is kept: the slope's bias from the loop's transients
@@ -221,7 +220,6 @@ class HeatLossObserver {
   }
 
   T gain() const { return k_; }
-  T latent() const { return l_; }
   T sensitivity() const { return S_; }  // dT/dk along the model wire's path, K
   // (k^ - 1) G dt / C: the model wire's extra loss per tick and kelvin above ambient.
   T loss_correction() const { return kc_; }
@@ -237,7 +235,6 @@ class HeatLossObserver {
   T S_;                             // dT/dk along the model wire's path, K
   T SL_;                            // dT/dL along it, K/J
   T k_, kc_;
-  T l_ = T(0);
 };
 
 }  // namespace sma

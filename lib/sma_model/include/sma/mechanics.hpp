@@ -26,7 +26,7 @@ struct Expansion {
 
   Expansion(const Params& p, const Effects& fx)
       : k(from_double<T>(1000.0 * fx.thermal_expansion_per_K * p.L0)),
-        T_a(from_double<T>(p.T_amb + fx.ambient_offset_K)),
+        T_a(from_double<T>(fx.ambient_C(p.T_amb))),
         expands(fx.thermal_expansion_per_K != 0.0) {}
   T lengthening(T Tw) const { return k * (Tw - T_a); }
 };

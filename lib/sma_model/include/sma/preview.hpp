@@ -220,7 +220,7 @@ class PreviewCore {
         mech_(p),
         wire_step_(thermal_, p, cfg.dt, fx),
         grid_step_(p, cfg.grid_s, fx),
-        est_(curves_, from_double<T>(p.T_amb + fx.ambient_offset_K), T(0)),
+        est_(curves_, from_double<T>(fx.ambient_C(p.T_amb)), T(0)),
         sim_h_(est_),  // (start_sim() copies est_ into it before every plan)
         v_max_(from_double<T>(cfg.v_max)),
         inv_dt_(from_double<T>(1.0 / cfg.dt)),
@@ -264,7 +264,7 @@ class PreviewCore {
       const double n = sw[k] / cfg.grid_s + 0.5;
       switch_at_[k] = sw[k] < 0.0 || n >= 254.0 ? kNever : static_cast<uint8_t>(n);
     }
-    reset(from_double<T>(p.T_amb + fx.ambient_offset_K), T(0));
+    reset(from_double<T>(fx.ambient_C(p.T_amb)), T(0));
   }
   PreviewCore(const PreviewCore&) = delete;  // the hysteresis points into curves_
   PreviewCore& operator=(const PreviewCore&) = delete;
@@ -438,7 +438,6 @@ class PreviewCore {
   bool heating() const { return heating_; }       // the branch the controller drives
   uint16_t plans() const { return plans_; }       // completed plans (tests, telemetry)
   T heat_loss_gain() const { return heat_.gain(); }  // the wire's heat loss against the model's
-  T heat_latent() const { return heat_.latent(); }  // J: the regression's latent heat beyond the model's
   T heating_shift() const { return shift_; }  // K: the wire at T is where the model's curve has T + shift
 
  private:

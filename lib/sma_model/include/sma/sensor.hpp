@@ -28,7 +28,7 @@ template <class T>
 class SensorPredictor {
  public:
   SensorPredictor(const PhaseCurves<T>& curves, const Params& p, const Effects& fx, double dt)
-      : SensorPredictor(curves, p, fx, dt, from_double<T>(p.T_amb + fx.ambient_offset_K)) {}
+      : SensorPredictor(curves, p, fx, dt, from_double<T>(fx.ambient_C(p.T_amb))) {}
   // With the true ambient T_amb + ambient offset as the scalar (the controller's thermal model has it).
   SensorPredictor(const PhaseCurves<T>& curves, const Params& p, const Effects& fx, double dt, T T_amb_true)
       : walker_(curves, T_amb_true, T(0)),

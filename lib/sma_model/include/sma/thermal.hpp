@@ -37,7 +37,7 @@ struct Thermal {
         G(from_double<T>(G_th)),
         R(from_field<T>(p.R)),
         inv_R(reciprocal_as<T>(p.R)),
-        T_a(from_double<T>(p.T_amb + fx.ambient_offset_K)),
+        T_a(from_double<T>(fx.ambient_C(p.T_amb))),
         beta(from_field<T>(fx.convection_beta_per_K)),
         k_R(from_field<T>(fx.resistance_k)),
         L(from_field<T>(fx.latent_heat_J)),
@@ -89,7 +89,7 @@ template <class T>
 struct ThermalStep {
   T a, b, T_a;
   ThermalStep(const Params& p, double dt, const Effects& fx = Effects())
-      : ThermalStep(p, dt, p.heat_capacity(), p.conductance(), from_double<T>(p.T_amb + fx.ambient_offset_K)) {}
+      : ThermalStep(p, dt, p.heat_capacity(), p.conductance(), from_double<T>(fx.ambient_C(p.T_amb))) {}
   // With C_th, G and the true ambient computed by the caller (Thermal's).
   ThermalStep(const Params& p, double dt, double C_th, double G_th, T T_amb_true) : T_a(T_amb_true) {
     const double tau = C_th / G_th;
