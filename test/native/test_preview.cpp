@@ -298,7 +298,10 @@ TEST(PreviewConfig, OutOfRangeSettingsAreRefusedByName) {
                      {&sma::PreviewConfig::reapproach_mm, -0.01, "reapproach_mm"},
                      {&sma::PreviewConfig::reapproach_mm, NAN, "reapproach_mm"},
                      {&sma::PreviewConfig::stale_offset_mm, 2.0, "stale_offset_mm"},
-                     {&sma::PreviewConfig::stale_offset_mm, NAN, "stale_offset_mm"}};
+                     {&sma::PreviewConfig::stale_offset_mm, NAN, "stale_offset_mm"},
+                     {&sma::PreviewConfig::heat_gain_latent_spread, -0.01, "heat_gain_latent_spread"},
+                     {&sma::PreviewConfig::heat_gain_latent_spread, 11.0, "heat_gain_latent_spread"},
+                     {&sma::PreviewConfig::heat_gain_latent_spread, NAN, "heat_gain_latent_spread"}};
   for (const Bad& b : bad) {
     sma::PreviewConfig c;
     c.*b.field = b.value;
