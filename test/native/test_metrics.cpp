@@ -140,3 +140,68 @@ TEST(Metrics, StepOvershootWithinWindow) {
   EXPECT_NEAR(sma_host::step_overshoot_mm(run, 20.0, 15.0), 0.05, 1e-12);
 }
 }  // namespace
+
+// A user trajectory (reference_metrics): 0.3 mm held from t = 0, a 2 s ramp up to 0.6 mm from
+// t = 10 s, held to t = 25 s, then a jump down to 0.4 mm held to t = 40 s. The position
+// follows the ramp, falling 0.05 mm behind within 0.5 s, reaches 0.6 mm 1 s after the ramp ends and rests 0.01 mm
+// below it; after the jump it first rises 0.03 mm (the minor-loop rise) for 1 s, falls to
+// 0.4 mm by t = 28 s and holds there. Every figure is known by construction.
+TEST(Metrics, ReferenceMetricsOnATrajectory) {
+  const auto ref = [](double t) {
+    if (t < 10.0) return 0.3;
+    if (t < 12.0) return 0.3 + 0.15 * (t - 10.0);
+    return t < 25.0 ? 0.6 : 0.4;
+  };
+  const auto pos = [&](double t) {
+    if (t < 10.0) return 0.3;
+    if (t < 12.0) return ref(t) - 0.05 * fmin(1.0, 2.0 * (t - 10.0));  // 0.05 mm behind after 0.5 s
+    if (t < 13.0) return 0.55 + 0.04 * (t - 12.0);  // to 0.59 at 13 s
+    if (t < 25.0) return 0.59;
+    if (t < 26.0) return 0.59 + 0.03 * (t - 25.0);  // the rise: up to 0.62
+    if (t < 28.0) return 0.62 - 0.11 * (t - 26.0);  // to 0.40 at 28 s
+    return 0.4;
+  };
+  const auto run = run_of(4000, ref, pos);
+  const sma_host::Metrics m = sma_host::reference_metrics(run);
+  EXPECT_NEAR(m.max_mm, 0.22, 1e-3);        // just after the jump: 0.62 against 0.4
+  EXPECT_NEAR(m.max_rise_mm, 0.05, 1e-3);   // the ramp's lag
+  EXPECT_NEAR(m.max_fall_mm, 0.22, 1e-3);
+  EXPECT_NEAR(m.wrong_way_mm, 0.03, 1e-3);  // the rise after the jump down
+  EXPECT_NEAR(m.sse_mm, 0.01, 1e-9);        // the 0.6 mm hold rests 0.01 mm short
+  // Time to 5 % of each move from when the reference arrives: the 0.3 mm first hold (from the
+  // cold wire's 0, which this position never left: it was there at once) 0 s; the 0.6 mm hold
+  // (0.3 mm move, band 0.015 mm: in at 0.55 + 0.04 t = 0.585, 0.875 s after 12 s); the 0.4 mm
+  // hold (band 0.01 mm: in at 0.62 - 0.11 t = 0.41, 1.909 s after 26 s, 2.909 s after 25 s).
+  EXPECT_NEAR(m.settle_max_s, 2.91, 0.02);
+  EXPECT_NEAR(m.settle_s, (0.0 + 0.875 + 2.909) / 3.0, 0.02);
+  // Wrong-way before: on the 0.6 mm hold (next move down) the position never passes above it.
+  EXPECT_NEAR(m.wrong_way_before_mm, 0.0, 1e-9);
+  // RMS over the whole run: the samples' own mean square.
+  double sq = 0;
+  for (const auto& s : run) sq += (s.ref - s.truth) * (s.ref - s.truth);
+  EXPECT_NEAR(m.rms_mm, sqrt(sq / static_cast<double>(run.size())), 1e-12);
+}
+
+// On the paper's multi-step the trajectory metrics and step_metrics agree: the same whole-run
+// figures read from the recorded reference instead of the step length (wrong-way from one sample
+// earlier: the position when the step comes).
+TEST(Metrics, ReferenceMetricsAgreeWithStepMetricsOnSteps) {
+  const auto ref = [](double t) { return t < 10.0 ? 0.4 : t < 20.0 ? 0.8 : 0.5; };
+  // A first-order approach (tau 1 s) to each setpoint with a 0.02 mm rise after the down-step.
+  const auto pos = [&](double t) {
+    if (t < 10.0) return 0.4 * (1 - exp(-t));
+    if (t < 20.0) return 0.8 - 0.4 * exp(-(t - 10.0));
+    return 0.5 + 0.3 * exp(-(t - 20.0)) + 0.02 * (t - 20.0) * exp(-2 * (t - 20.0)) * 5.4366;
+  };
+  const auto run = run_of(3000, ref, pos);
+  const sma_host::Metrics a = sma_host::reference_metrics(run), b = sma_host::step_metrics(run, 10.0);
+  EXPECT_NEAR(a.max_mm, b.max_mm, 1e-12);
+  EXPECT_NEAR(a.rms_mm, b.rms_mm, 1e-12);
+  EXPECT_NEAR(a.max_rise_mm, b.max_rise_mm, 1e-12);
+  EXPECT_NEAR(a.max_fall_mm, b.max_fall_mm, 1e-12);
+  EXPECT_NEAR(a.rms_fall_mm, b.rms_fall_mm, 1e-12);
+  EXPECT_NEAR(a.wrong_way_mm, b.wrong_way_mm, 1e-3);
+  EXPECT_NEAR(a.wrong_way_before_mm, b.wrong_way_before_mm, 1e-12);
+  EXPECT_NEAR(a.sse_mm, b.sse_mm, 1e-12);
+  EXPECT_NEAR(a.settle_max_s, b.settle_max_s, 0.011);
+}

@@ -17,6 +17,13 @@
 //    the step's second half; the max over steps. A step that never sits on its setpoint has
 //    a large one; a controller that leaves a setpoint early for the next move (preview) is not
 //    charged for it here (the whole-run figures charge it).
+// Any reference (a user's trajectory: ramps, holds, jumps; reference_metrics()): the same
+// whole-run set read from the reference the run recorded: a hold is a stretch where it stays, a
+// move one where it changes; rise / fall follow the direction of its last move (a hold belongs
+// to the move that reached it); wrong-way from where each move starts (after a hold, or at a
+// reversal); wrong-way before, SSE and time to 5 % per hold (time to 5 %: from when the
+// reference arrives, of the move since the hold before; SSE as for a step, over the hold). A
+// hold lasts kMinHoldS or more: a slow ramp logged to a few decimals repeats values.
 // Paper-style figures, kept beside them and labelled as such (they count only part of the run):
 //  - max_heat_mm, rms_heat_mm, max_cool_mm: sine: while the reference rises / falls (same as
 //    the phases); steps: from the first arrival at the new setpoint on (so the jump and a
@@ -231,6 +238,84 @@ inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool 
   m.settle_s = n_settle ? settle_sum / static_cast<double>(n_settle) : 0;
   m.max_heat_mm = heat.max;
   m.rms_heat_mm = heat.rms();
+  return m;
+}
+
+// The whole-run set for any reference (the header comment), scored from t = from_s (0: the
+// whole run; a sine's first period is a start-up transient: sine_metrics skips it). The run's
+// start counts as a hold at 0 mm (a cold wire): its first setpoint is a move up. The paper-style
+// figures are left at 0.
+constexpr double kMinHoldS = 0.5;
+
+inline Metrics reference_metrics(const std::vector<Sample>& run, double from_s = 0.0, bool measured = false) {
+  Metrics m;
+  if (run.empty()) return m;
+  detail::Acc all, rise, fall;
+  double settle_sum = 0;
+  long n_settle = 0;
+  const size_t n = run.size();
+  // A move's start: the sample before the reference leaves a hold or turns, with its direction.
+  size_t move_k = 0;
+  int dir = run[0].ref > 0 ? 1 : run[0].ref < 0 ? -1 : 0;
+  double hold_mm = 0.0;  // the last hold's value (the run starts from a cold wire at 0)
+  auto close_move = [&](size_t end) {
+    if (dir != 0 && run[move_k].t >= from_s - 1e-9)
+      m.wrong_way_mm = fmax(m.wrong_way_mm, detail::wrong_way(run, move_k, end, dir > 0, measured));
+  };
+  size_t k = 0;
+  while (k < n) {
+    // The stretch [k, h) where the reference stays at run[k].ref.
+    size_t h = k + 1;
+    while (h < n && run[h].ref == run[k].ref) ++h;
+    const bool hold = run[h - 1].t - run[k].t >= kMinHoldS - 1e-9;
+    if (hold) {  // arrival, wrong-way before the next move, time to 5 %, SSE
+      const double r = run[k].ref, move = r - hold_mm;
+      const double next_dir = h < n ? run[h].ref - r : 0.0;
+      bool arrived = false;
+      double last_out = run[k].t;
+      for (size_t i = k; i < h; ++i) {
+        const double e = err_of(run[i], measured);
+        if (!arrived && (move > 0 ? e <= 0 : e >= 0)) arrived = true;
+        if (arrived && next_dir != 0.0 && run[i].t >= from_s - 1e-9)
+          m.wrong_way_before_mm = fmax(m.wrong_way_before_mm, next_dir > 0 ? e : -e);
+        if (fabs(e) > 0.05 * fabs(move)) last_out = run[i].t;
+      }
+      if (move != 0.0 && run[k].t >= from_s - 1e-9) {
+        const double ts = last_out - run[k].t;
+        settle_sum += ts;
+        m.settle_max_s = fmax(m.settle_max_s, ts);
+        ++n_settle;
+        m.sse_mm = fmax(m.sse_mm, detail::steady_error(run, k, h, measured));
+      }
+      hold_mm = r;
+    }
+    // The samples of the stretch, and where the next move starts: its last sample (h - 1) is
+    // where the wire is when the reference leaves it (a reversal inside a ramp: the turn).
+    for (size_t i = k; i < h; ++i) {
+      if (run[i].t < from_s - 1e-9) continue;
+      const double e = err_of(run[i], measured);
+      all.add(e);
+      if (dir > 0) rise.add(e);
+      if (dir < 0) fall.add(e);
+    }
+    if (h < n) {
+      const int d = run[h].ref > run[h - 1].ref ? 1 : -1;
+      if (hold || d != dir) {
+        close_move(h);
+        move_k = h - 1;
+        dir = d;
+      }
+    }
+    k = h;
+  }
+  close_move(n);
+  m.max_mm = all.max;
+  m.rms_mm = all.rms();
+  m.max_rise_mm = rise.max;
+  m.rms_rise_mm = rise.rms();
+  m.max_fall_mm = fall.max;
+  m.rms_fall_mm = fall.rms();
+  m.settle_s = n_settle ? settle_sum / static_cast<double>(n_settle) : 0;
   return m;
 }
 
