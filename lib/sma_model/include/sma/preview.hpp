@@ -221,8 +221,7 @@ class PreviewCore {
         wire_step_(thermal_, p, cfg.dt, fx),
         grid_step_(p, cfg.grid_s, fx),
         est_(curves_, from_double<T>(fx.ambient_C(p.T_amb)), T(0)),
-        sim_h_(est_),  // (start_sim() copies the plan's start into it before every candidate)
-        plan_h_(est_),
+        sim_h_(est_),  // (start_sim() copies est_ into it before every plan)
         v_max_(from_double<T>(cfg.v_max)),
         inv_dt_(from_double<T>(1.0 / cfg.dt)),
         inv_track_(from_double<T>(1.0 / cfg.track_s)),
@@ -760,26 +759,15 @@ class PreviewCore {
     elapsed_ticks_ = 0;
     best_cost_ = T(-1);
     best_ = 0;
-    // The model wire and the branch state as the plan starts: every candidate starts there.
-    // (The plan runs over ~0.56 s of ticks; a candidate started from the wire as it is when its
-    // turn comes would start up to that much later on its path, e.g. ~8 K hotter under full
-    // heating, and be compared with the others as if it started where they did. Its switch
-    // times, the reference samples r_ and the plan's age are all counted from the plan's start.)
-    plan_T_ = T_est_;
-    plan_h_ = est_;
-    plan_heat_ = heating_;
-    plan_moved_ = moved_with_;
-    plan_ext_ = ref_extreme_;
-    plan_fall_ = falling_;
     start_sim();
   }
   SMA_PREVIEW_NOINLINE void start_sim() {
-    sim_T_ = plan_T_;
-    sim_h_ = plan_h_;
-    sim_heat_ = plan_heat_;
-    sim_moved_ = plan_moved_;
-    sim_ext_ = plan_ext_;
-    sim_fall_ = plan_fall_;
+    sim_T_ = T_est_;
+    sim_h_ = est_;
+    sim_heat_ = heating_;
+    sim_moved_ = moved_with_;
+    sim_ext_ = ref_extreme_;
+    sim_fall_ = falling_;
     cost_ = T(0);
   }
 
@@ -971,7 +959,6 @@ class PreviewCore {
   ThermalStep<T> grid_step_;
   Hysteresis<T> est_;    // loop memory of the model wire
   Hysteresis<T> sim_h_;  // its copy, walked by the plan
-  Hysteresis<T> plan_h_;  // the model wire's loop memory when the plan started
   T v_max_, inv_dt_, inv_track_, d_alpha_, cool_w_;
   T switch_margin_;  // cost units: (0.1 mm)^2, a mean over the horizon's grid steps
   T inv_n_;          // 1 / grid steps of the horizon
@@ -1037,8 +1024,6 @@ class PreviewCore {
   uint16_t switch_due_;  // ticks until a planned branch switch, 0 = none
   T best_cost_, natural_cost_ = T(0), cost_, sim_T_, sim_ext_;
   bool sim_heat_, sim_moved_, sim_fall_;
-  T plan_T_, plan_ext_;  // the plan's start: model wire temperature, reference extreme
-  bool plan_heat_, plan_moved_, plan_fall_;  // and branch state
   // The reference track_s after the next tick, sampled between ticks by plan_step().
   T lead_ = T(0);
   bool lead_ready_;
