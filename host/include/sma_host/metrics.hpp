@@ -104,6 +104,16 @@ inline double steady_error(const std::vector<Sample>& run, size_t k0, size_t end
   }
   return std::isfinite(best) ? best : 0.0;
 }
+
+// The whole run's and each phase's max and RMS into m.
+inline void put_phases(Metrics& m, const Acc& all, const Acc& rise, const Acc& fall) {
+  m.max_mm = all.max;
+  m.rms_mm = all.rms();
+  m.max_rise_mm = rise.max;
+  m.rms_rise_mm = rise.rms();
+  m.max_fall_mm = fall.max;
+  m.rms_fall_mm = fall.rms();
+}
 }  // namespace detail
 
 inline Metrics sine_metrics(const std::vector<Sample>& run, double period_s, bool measured = false) {
@@ -133,12 +143,7 @@ inline Metrics sine_metrics(const std::vector<Sample>& run, double period_s, boo
     if (d < 0) fall.add(e);
   }
   close_phase(run.size());
-  m.max_mm = all.max;
-  m.rms_mm = all.rms();
-  m.max_rise_mm = rise.max;
-  m.rms_rise_mm = rise.rms();
-  m.max_fall_mm = fall.max;
-  m.rms_fall_mm = fall.rms();
+  detail::put_phases(m, all, rise, fall);
   // On a sine the paper's heating / cooling are exactly the rising / falling phases.
   m.max_heat_mm = rise.max;
   m.rms_heat_mm = rise.rms();
@@ -229,12 +234,7 @@ inline Metrics step_metrics(const std::vector<Sample>& run, double step_s, bool 
     }
     start = end;
   }
-  m.max_mm = all.max;
-  m.rms_mm = all.rms();
-  m.max_rise_mm = rise.max;
-  m.rms_rise_mm = rise.rms();
-  m.max_fall_mm = fall.max;
-  m.rms_fall_mm = fall.rms();
+  detail::put_phases(m, all, rise, fall);
   m.settle_s = n_settle ? settle_sum / static_cast<double>(n_settle) : 0;
   m.max_heat_mm = heat.max;
   m.rms_heat_mm = heat.rms();
@@ -309,12 +309,7 @@ inline Metrics reference_metrics(const std::vector<Sample>& run, double from_s =
     k = h;
   }
   close_move(n);
-  m.max_mm = all.max;
-  m.rms_mm = all.rms();
-  m.max_rise_mm = rise.max;
-  m.rms_rise_mm = rise.rms();
-  m.max_fall_mm = fall.max;
-  m.rms_fall_mm = fall.rms();
+  detail::put_phases(m, all, rise, fall);
   m.settle_s = n_settle ? settle_sum / static_cast<double>(n_settle) : 0;
   return m;
 }
