@@ -12,6 +12,7 @@
 #include "mechanics.hpp"
 #include "params.hpp"
 #include "pid.hpp"
+#include "reference.hpp"
 #include "scalar.hpp"
 #include "thermal.hpp"
 
@@ -43,6 +44,28 @@ struct ControllerConfig {
     if (!(v_max > 0.0 && v_max <= 5.0)) return "v_max must be in 0..5";
     return gains.check();
   }
+};
+
+// FeedforwardPid with the known future (issue 13): the caller's setting (the board's console,
+// the host's RunSetup), read through ReferenceGen::lookahead into Controller::step.
+struct LeadConfig {
+  // s; 0: the paper's eq 18. The inverse model reads the reference lead_s ahead where it is
+  // lower than now: cooling is passive and slow, the cooling branch is taken lead_s before the reference falls (the heating/cooling
+  // trade-off: a longer lead leaves a setpoint earlier for the fall that follows). And it stops
+  // a heating where the minor-loop rise (eqs 5-6) carries the wire to the highest reference of
+  // the next peak_window_s (InverseModel::step's peak rule). The PID keeps the error r - D.
+  double lead_s = 0.0;
+  double peak_window_s = 10.0;
+
+  constexpr const char* check() const {
+    if (!(lead_s >= 0.0 && lead_s <= 20.0)) return "lead_s must be in 0..20";
+    if (!(peak_window_s > 0.0 && peak_window_s <= 20.0)) return "peak_window_s must be in 0..20";
+    return nullptr;
+  }
+  bool on() const { return lead_s > 0.0; }
+  // The two in ticks of dt (ReferenceGen::lookahead).
+  uint32_t lead_ticks(double dt) const { return static_cast<uint32_t>(lead_s / dt + 0.5); }
+  uint32_t window_ticks(double dt) const { return static_cast<uint32_t>(peak_window_s / dt + 0.5); }
 };
 
 // Tag of a ControllerConfig whose check() the caller has proven at compile time (the board's
@@ -89,13 +112,17 @@ class Controller {
   // One tick: reference and measured displacement (mm) -> voltage across the wire, 0..V_max.
   // The wire temperature estimate advances with the voltage actually commanded (eq 1 with the
   // model's effects, WireStep): what the safety limit and the PID's branch limits watch.
-  T step(T ref, T measured) {
+  T step(T ref, T measured) { return step(ref, measured, Lookahead<T>{ref, ref}, false); }
+  // The same with the known future (LeadConfig; ReferenceGen::lookahead).
+  T step(T ref, T measured, const Lookahead<T>& future) { return step(ref, measured, future, true); }
+  // Either of them (`lead`: the known future is used).
+  T step(T ref, T measured, const Lookahead<T>& future, bool lead) {
     // The fraction for a phase-dependent resistance comes from the measurement (V_hold and the
     // estimate); latent heat is left out of the estimate (d(eps)/dt of a noisy measurement
     // would be all noise).
     // (Eq 1 of the paper does not need it: skip the work.)
     if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? inverse_.mechanics().fraction(measured, T_wire_) : T(0);
-    v_ = compute(ref, measured);
+    v_ = compute(ref, measured, future, lead);
     T_wire_ = inverse_.wire_step()(T_wire_, v_, eps_meas_);
     hold_ready_ = false;  // V_hold was the old estimate's
     return v_;
@@ -149,21 +176,22 @@ class Controller {
   // (Out of line: one copy for the tick and prepare_next_tick, flash on the Uno.)
   __attribute__((noinline)) T thermal_hold() const { return inverse_.thermal().hold_voltage(T_wire_, eps_meas_); }
 
-  T compute(T ref, T measured) {
+  T compute(T ref, T measured, const Lookahead<T>& future, bool lead) {
     v1_ = T(0);
     v2_ = T(0);
     if (!is_finite(ref) || !is_finite(measured)) return T(0);
     ref = clamp(ref, T(0), inverse_.mechanics().g);  // a reference past the stroke cannot be reached
+    const T ahead = is_finite(future.ahead) ? clamp(future.ahead, T(0), inverse_.mechanics().g) : ref;
     switch (mode_) {
       case Mode::OpenLoop: return v_open_;
       case Mode::Pid:
         v2_ = pid_.step(ref - measured, measured, T(0), v_max_);
         break;
       case Mode::Feedforward:
-        v1_ = inverse_.step(ref);  // 0..V_max: the inverse has the same V_max
+        v1_ = inverse_.step(ahead, future.peak, lead);  // 0..V_max: the inverse has the same V_max
         break;
       case Mode::FeedforwardPid: {
-        v1_ = inverse_.step(ref);
+        v1_ = inverse_.step(ahead, future.peak, lead);
         // PID limits: V1 + V2 inside 0..V_max (eq 18; the anti-windup sees the clamp), and
         // never against the branch the reference is on. While it heats, the PID may slow the
         // heating but not cool the wire: cooling opens a minor loop whose rise (eqs 5-6) moves
@@ -175,6 +203,9 @@ class Controller {
         T lo = -v1_, hi = v_max_ - v1_;
         if (inverse_.heating()) lo = max(lo, v_hold - v1_);
         else hi = min(hi, max(v_hold - v1_, lo));
+        // On the rise of the peak rule cooling moves the wire up, heating stalls it on a flat
+        // stage: the error's sign says nothing of the voltage's, the feedforward rides alone.
+        if (inverse_.riding()) lo = hi = T(0);
         v2_ = pid_.step(ref - measured, measured, lo, hi);
         break;
       }

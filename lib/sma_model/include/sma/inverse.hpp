@@ -83,7 +83,13 @@ class InverseModel {
   }
 
   // One tick: reference u (mm) -> feedforward V1 in 0..V_max.
-  T step(T u) {
+  T step(T u) { return step(u, u, false); }
+  // The same with the known future (issue 13): `peak`, the highest reference of the next few
+  // seconds. A heating stops where the minor-loop rise (eqs 5-6) of a reversal at the present
+  // point would carry the wire to that peak: the branch turns to cooling and the wire rides the
+  // rise up (lower temperature, higher fraction) while the reference still climbs, instead of
+  // being heated to the peak and rising past it when the cooling starts (Fig. 12).
+  T step(T u, T peak, bool peak_rule) {
     advance_model();  // the last tick's, where the caller did not run it between ticks
     if (!is_finite(u)) u = u_prev_;  // hold the last reference on NaN
     u_prev_ = u;
@@ -92,9 +98,18 @@ class InverseModel {
     // of a fixed-point scalar and would flip on rounding.
     if (heating_ ? u > u_extreme_ : u < u_extreme_) u_extreme_ = u;
     if (heating_ ? u < u_extreme_ - deadband_ : u > u_extreme_ + deadband_) {
-      heating_ = !heating_;
+      // A rising reference that the rise still reaches (above its end, below its top) stays
+      // on the cooling branch: it is followed up the rise.
       u_extreme_ = u;
+      if (!(peak_rule && !heating_ && on_rise(mech_.fraction(u)))) heating_ = !heating_;
     }
+    // The peak rule: only while the reference still climbs towards the peak (a hold is not a
+    // peak) and the present heating transformed (a rise exists: its top above eps).
+    if (peak_rule && heating_ && memory_.heating() && peak > u + deadband_) {
+      const CoolingLoop<T>& L = memory_.prepare_cooling_shape();  // (top needs no rates)
+      if (L.top > memory_.eps() && !(mech_.fraction(peak) > L.top)) heating_ = false;
+    }
+    riding_ = false;
 
     // Eq 14 then eq 15 or 16. With thermal expansion eq 14 needs the temperature it leads to,
     // eps_d = (u + k (T(eps_d) - T_a)) / g: a fixed number of fixed-point steps (a contraction:
@@ -121,14 +136,15 @@ class InverseModel {
     } else {
       // Eq 16 needs only the loop's shape: its rates wait (prepare_cooling_shape).
       const CoolingLoop<T>& loop = memory_.prepare_cooling_shape();
-      T_new = curves_.cool_temperature(loop, e);  // eq 16, this loop's T_MSi
-      if (expands)
+      riding_ = peak_rule && !(e < memory_.eps()) && on_rise(e);  // (on_rise finishes the loop)
+      T_new = riding_ ? curves_.rise_temperature(loop, e) : curves_.cool_temperature(loop, e);  // eq 16, this loop's T_MSi
+      if (expands && !riding_)
         for (int i = 0; i < kExpansionSteps; ++i) {
           e = mech_.fraction(u, T_new);
           T_new = curves_.cool_temperature(loop, e);
         }
       // Eq 16 inverts eq 11 only strictly inside the cooling stage.
-      on_curve = T_new < T_d && e > T(0) && e < loop.top && curves_.has_cooling_stage(loop);
+      on_curve = !riding_ && T_new < T_d && e > T(0) && e < loop.top && curves_.has_cooling_stage(loop);
       T_new = min(T_new, T_d);
     }
     if (on_curve) memory_.update(T_new, e);
@@ -173,6 +189,8 @@ class InverseModel {
   // (After step(): the model wire at the end of its tick, advanced or not.)
   T model_temperature() const { return model_pending_ ? wire_step_(T_m_, v1_, eps_f_, deps_dt_) : T_m_; }
   bool heating() const { return heating_; }
+  // On the rise of the present loop (the peak rule): cooling moves the wire up.
+  bool riding() const { return riding_; }
   const Hysteresis<T>& memory() const { return memory_; }
   const Thermal<T>& thermal() const { return thermal_; }
   const Mechanics<T>& mechanics() const { return mech_; }
@@ -186,6 +204,13 @@ class InverseModel {
 
  private:
   static constexpr int kExpansionSteps = 3;
+
+  // Fraction e is on the rise of the memory's loop from where the memory is: between the
+  // rise's end and its top, the memory still above the rise's end temperature T_ii.
+  bool on_rise(T e) const {
+    const CoolingLoop<T>& L = memory_.loop();
+    return e < L.top && memory_.temperature() > L.T_ii;
+  }
 
   // (Out of line: one copy for advance_model's two callers, flash on the Uno.)
   __attribute__((noinline)) void advance_model_now() {
@@ -203,6 +228,7 @@ class InverseModel {
   T T_f_, T_m_, eps_f_, u_prev_, u_extreme_;
   T v1_, deps_dt_;      // the last step's V1 and d(eps_f)/dt: the model wire's pending tick
   bool heating_;
+  bool riding_ = false;
   bool model_pending_;  // T_m_ has not had the last step's tick yet (advance_model)
 };
 

@@ -76,6 +76,14 @@ struct Reference : RefShape {
   }
 };
 
+// The known future the inverse model reads (LeadConfig, ReferenceGen::lookahead):
+// `ahead`, the reference lead_s ahead where it is below the present one (else the present), and
+// `peak`, the highest reference of the next peak_window_s.
+template <class T>
+struct Lookahead {
+  T ahead, peak;
+};
+
 // Evaluates a Reference in the scalar type T; parameters are converted once.
 template <class T>
 class ReferenceGen {
@@ -98,6 +106,18 @@ class ReferenceGen {
   T at_tick(uint32_t k, double dt) const {
     if (r_.kind == RefKind::Sine) return sine_at(k * turns_per_tick_);
     return at(static_cast<double>(k) * dt);
+  }
+
+  // The known future at tick k: the reference lead_ticks ahead where lower than now, and the
+  // peak over kLookaheadSamples points of the next window_ticks (the paper's sine peak lies
+  // within 0.2 % of its span of the highest sample of a 10 s window; a step is seen at most a
+  // sample late).
+  static constexpr uint8_t kLookaheadSamples = 8;
+  Lookahead<T> lookahead(uint32_t k, uint32_t lead_ticks, uint32_t window_ticks, double dt) const {
+    const T now = at_tick(k, dt);
+    Lookahead<T> f{min(now, at_tick(k + lead_ticks, dt)), now};
+    for (uint8_t i = 1; i <= kLookaheadSamples; ++i) f.peak = max(f.peak, at_tick(k + window_ticks * i / kLookaheadSamples, dt));
+    return f;
   }
 
   // Reference at t seconds (t >= 0).
