@@ -58,7 +58,7 @@ TEST(Lead, RidingTheRiseCoolsWhileTheReferenceRises) {
     sma::Controller<double> ctl(s.model_params, s.model_effects, s.config);
     sma::ReferenceGen<double> gen(s.reference, s.config.dt);
     ctl.set_mode(sma::Mode::FeedforwardPid, 0.0);
-    const uint32_t lead = s.lead.lead_ticks(s.config.dt), window = s.lead.window_ticks(s.config.dt);
+    const uint32_t lead = s.lead.lead_ticks(s.config.dt), window = s.lead.sample_ticks(s.config.dt);
     int riding = 0;
     double T_prev = 0.0, r_prev = 0.0;
     bool was_riding = false;

@@ -83,6 +83,7 @@ template <class T>
 struct Lookahead {
   T ahead, peak;
 };
+constexpr uint8_t kLookaheadSamples = 8;  // the window's samples (ReferenceGen::lookahead)
 
 // Evaluates a Reference in the scalar type T; parameters are converted once.
 template <class T>
@@ -109,14 +110,13 @@ class ReferenceGen {
   }
 
   // The known future at tick k: the reference lead_ticks ahead where lower than now, and the
-  // peak over kLookaheadSamples points of the next window_ticks (the paper's sine peak lies
-  // within 0.2 % of its span of the highest sample of a 10 s window; a step is seen at most a
-  // sample late).
-  static constexpr uint8_t kLookaheadSamples = 8;
-  Lookahead<T> lookahead(uint32_t k, uint32_t lead_ticks, uint32_t window_ticks, double dt) const {
+  // peak over kLookaheadSamples points sample_ticks apart (the window; the paper's sine peak
+  // lies within 0.2 % of its span of the highest sample of a 10 s window; a step is seen at most
+  // a sample late).
+  Lookahead<T> lookahead(uint32_t k, uint32_t lead_ticks, uint32_t sample_ticks, double dt) const {
     const T now = at_tick(k, dt);
     Lookahead<T> f{min(now, at_tick(k + lead_ticks, dt)), now};
-    for (uint8_t i = 1; i <= kLookaheadSamples; ++i) f.peak = max(f.peak, at_tick(k + window_ticks * i / kLookaheadSamples, dt));
+    for (uint8_t i = 0; i < kLookaheadSamples; ++i) f.peak = max(f.peak, at_tick(k += sample_ticks, dt));
     return f;
   }
 
