@@ -1,8 +1,11 @@
 // Tracking benchmark: the paper's two references on the simulated plant, for PID alone,
-// feedforward alone, feedforward + PID and the preview controller (preview.hpp), in double,
+// feedforward alone, feedforward + PID, feedforward + PID with the known future ("lead":
+// LeadConfig::lead_s, the Uno's compact use of it) and the preview controller
+// (preview.hpp), in double,
 // float and Q16.16 fixed point, in the ideal and rig-like conditions of model.md. Settings:
 // tuned per controller, test and condition by sma_host::tune_pid / tune_preview (the same
-// method and objective for all: whole-run RMS + 0.1x whole-run max, tune.hpp). Prints a
+// method and objective for all: whole-run RMS + 0.1x whole-run max, tune.hpp; the lead by
+// tune_lead). Prints a
 // Markdown table and writes JSON; also the plant's speed in simulated seconds per wall second.
 //
 //   bench_tracking [--json FILE] [--quick]
@@ -24,6 +27,7 @@ struct Row {
   std::string test, condition, controller, scalar;
   sma::PidGains gains;
   sma::PreviewConfig preview;
+  double lead_s;
   Metrics m;
 };
 
@@ -45,26 +49,33 @@ int main(int argc, char** argv) {
     }
   }
   std::vector<Row> rows;
+  // FeedforwardPid twice: the paper's (lead 0), then with the known future (lead).
   const sma::Mode modes[] = {sma::Mode::Pid, sma::Mode::Feedforward, sma::Mode::FeedforwardPid,
-                             sma::Mode::Preview};
+                             sma::Mode::FeedforwardPid, sma::Mode::Preview};
   const sma_host::Objective objective = sma_host::Objective::WholeRun;
   int done = 0;
   sma_host::CaseLine progress;
   for (int c = 0; c < 2; ++c)
     for (int sine = 1; sine >= 0; --sine)
-      for (sma::Mode mode : modes) {
+      for (size_t i = 0; i < sizeof modes / sizeof modes[0]; ++i) {
+        const sma::Mode mode = modes[i];
+        const bool lead = i == 3;
         RunSetup s;
         s.mode = mode;
         s.condition = c ? Condition::rig_like() : Condition::ideal();
         s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
         if (mode == sma::Mode::Preview) s.preview = sma_host::tune_preview(s, objective).config;
-        else if (mode != sma::Mode::Feedforward) s.config.gains = sma_host::tune_pid(s, objective).gains;
-        progress("[%2d/16] tuning and running %-5s %-5s %s", ++done,
-                     sine ? "sine" : "steps", sma::mode_name(mode), s.condition.name);
+        else if (lead) {
+          const sma_host::LeadTuneResult t = sma_host::tune_lead(s, objective);
+          s.lead.lead_s = t.lead_s;
+          s.config.gains = t.pid.gains;
+        } else if (mode != sma::Mode::Feedforward) s.config.gains = sma_host::tune_pid(s, objective).gains;
+        const char* name = lead ? "lead" : sma::mode_name(mode);
+        progress("[%2d/20] tuning and running %-5s %-7s %s", ++done, sine ? "sine" : "steps", name, s.condition.name);
         const char* names[] = {"double", "float", "fixed"};
         for (int k = 0; k < 3; ++k) {
-          Row r{sine ? "sine" : "multi-step", s.condition.name, sma::mode_name(mode), names[k],
-                s.config.gains, s.preview, Metrics()};
+          Row r{sine ? "sine" : "multi-step", s.condition.name, name, names[k],
+                s.config.gains, s.preview, s.lead.lead_s, Metrics()};
           r.m = k == 0 ? run<double>(s) : k == 1 ? run<float>(s) : run<sma::Fixed>(s);
           rows.push_back(r);
         }
@@ -86,17 +97,19 @@ int main(int argc, char** argv) {
 
   std::printf("Tuned for: %s. Whole run (sine: after its first period; steps: from t = 0), phases "
               "with their transitions, then the paper-style partial figures (labelled). Preview rows: "
-              "kp = track_s, ki = offset_tau_s, kd = cool_weight.\n\n", sma_host::objective_name(objective));
-  std::printf("| test | condition | controller | scalar | kp | ki | kd | max mm | RMS mm | max rise mm | "
+              "kp = track_s, ki = offset_tau_s, kd = cool_weight. Lead rows: inverse + PID with the known "
+              "future (lead_s; peak window %.0f s).\n\n", sma_host::objective_name(objective),
+              sma::LeadConfig().peak_window_s);
+  std::printf("| test | condition | controller | scalar | kp | ki | kd | lead s | max mm | RMS mm | max rise mm | "
               "max fall mm | RMS fall mm | wrong-way mm (after / before a step) | settle max s | SSE mm | "
               "(paper) max heat mm | (paper) max cool mm |\n"
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (Row r : rows) {
     if (r.controller == "preview") r.gains = {r.preview.track_s, r.preview.offset_tau_s, r.preview.cool_weight};
-    std::printf("| %s | %s | %s | %s | %.3g | %.3g | %.3g | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f / %.4f | "
+    std::printf("| %s | %s | %s | %s | %.3g | %.3g | %.3g | %.3g | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f / %.4f | "
                 "%.2f | %.4f | %.4f | %.4f |\n",
                 r.test.c_str(), r.condition.c_str(), r.controller.c_str(), r.scalar.c_str(), r.gains.kp,
-                r.gains.ki, r.gains.kd, r.m.max_mm, r.m.rms_mm, r.m.max_rise_mm, r.m.max_fall_mm,
+                r.gains.ki, r.gains.kd, r.lead_s, r.m.max_mm, r.m.rms_mm, r.m.max_rise_mm, r.m.max_fall_mm,
                 r.m.rms_fall_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm, r.m.settle_max_s, r.m.sse_mm,
                 r.m.max_heat_mm, r.m.max_cool_mm);
   }
@@ -118,12 +131,12 @@ int main(int argc, char** argv) {
                  "\"max_rise_mm\": %.6f, \"rms_rise_mm\": %.6f, \"max_fall_mm\": %.6f, \"rms_fall_mm\": %.6f, "
                  "\"wrong_way_mm\": %.6f, \"wrong_way_before_mm\": %.6f, \"settle_s\": %.3f, \"settle_max_s\": %.3f, \"sse_mm\": %.6f, "
                  "\"max_heat_mm\": %.6f, \"rms_heat_mm\": %.6f, \"max_cool_mm\": %.6f, \"overshoot_pct\": %.3f, \"track_s\": %g, \"offset_tau_s\": %g, "
-                 "\"cool_weight\": %g}%s\n",
+                 "\"cool_weight\": %g, \"lead_s\": %g}%s\n",
                  r.test.c_str(), r.condition.c_str(), r.controller.c_str(), r.scalar.c_str(), r.gains.kp,
                  r.gains.ki, r.gains.kd, r.m.max_mm, r.m.rms_mm, r.m.max_rise_mm, r.m.rms_rise_mm,
                  r.m.max_fall_mm, r.m.rms_fall_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm, r.m.settle_s, r.m.settle_max_s,
                  r.m.sse_mm, r.m.max_heat_mm, r.m.rms_heat_mm, r.m.max_cool_mm, r.m.overshoot_pct,
-                 r.preview.track_s, r.preview.offset_tau_s, r.preview.cool_weight,
+                 r.preview.track_s, r.preview.offset_tau_s, r.preview.cool_weight, r.lead_s,
                  i + 1 < rows.size() ? "," : "");
   }
   std::fprintf(f, "  ]\n}\n");

@@ -2,8 +2,9 @@
 // in closed loop against the independently written plant B (plant_b.hpp): model != plant in
 // the thermal discretisation (RK4 sub-steps vs exact step) and, with the literal reading, in
 // the re-heat rule of the hysteresis. Rig-like and ideal conditions of model.md, the paper's
-// sine and multi-step; PID alone, inverse + PID and preview, each with the firmware's default
-// settings (console::default_gains, PreviewConfig()), double and float. For comparison the same
+// sine and multi-step; PID alone, inverse + PID, inverse + PID with the known future ("lead":
+// the board's leads, Board::lead_config, 3 s sine / 10 s steps) and preview, each with the
+// firmware's default settings (console::default_gains, PreviewConfig()), double and float. For comparison the same
 // controllers on the library's own plant. Prints a Markdown table and writes JSON.
 //
 //   bench_tracking_plant_b [--json FILE]
@@ -54,22 +55,26 @@ int main(int argc, char** argv) {
     }
   }
   const char* plant_names[] = {"library", "B (rpm)", "B (literal)"};
-  const sma::Mode modes[] = {sma::Mode::Pid, sma::Mode::FeedforwardPid, sma::Mode::Preview};
+  // FeedforwardPid twice: the paper's, then with the known future (lead).
+  const sma::Mode modes[] = {sma::Mode::Pid, sma::Mode::FeedforwardPid, sma::Mode::FeedforwardPid, sma::Mode::Preview};
   std::vector<Row> rows;
   sma_host::CaseLine progress;
   for (int c = 1; c >= 0; --c)
     for (int sine = 1; sine >= 0; --sine)
       for (int plant = 0; plant < 3; ++plant)
-        for (sma::Mode mode : modes) {
+        for (size_t i = 0; i < sizeof modes / sizeof modes[0]; ++i) {
+          const sma::Mode mode = modes[i];
+          const bool lead = i == 2;
           RunSetup s;
           s.mode = mode;
           s.condition = c ? Condition::rig_like() : Condition::ideal();
           s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
           if (mode != sma::Mode::Preview) s.config.gains = sma::console::default_gains(mode);
-          progress("%-5s %-8s %-12s %s", sine ? "sine" : "steps", s.condition.name,
-                   plant_names[plant], sma::mode_name(mode));
+          if (lead) s.lead.lead_s = sine ? 3.0 : 10.0;
+          const char* name = lead ? "lead" : sma::mode_name(mode);
+          progress("%-5s %-8s %-12s %s", sine ? "sine" : "steps", s.condition.name, plant_names[plant], name);
           for (int k = 0; k < 2; ++k) {
-            Row r{plant_names[plant], sine ? "sine" : "multi-step", s.condition.name, sma::mode_name(mode),
+            Row r{plant_names[plant], sine ? "sine" : "multi-step", s.condition.name, name,
                   k ? "float" : "double", k ? run<float>(plant, s) : run<double>(plant, s)};
             rows.push_back(r);
           }

@@ -2,7 +2,7 @@
 // numbers for the firmware, the virtual rig's native mode, the fuzzer and the host tests.
 // Features (all in the one image by default): the model store in EEPROM (pbegin..pinfo), the
 // training run (train), the sensor compensation (calibration undone, lag/delay predicted);
-// the preview controller only where RIG_FEATURE_PREVIEW is 1.
+// the preview controller only where RIG_FEATURE_PREVIEW is 1, the lead where RIG_FEATURE_LEAD is.
 #ifndef RIG_BOARD_H
 #define RIG_BOARD_H
 
@@ -26,6 +26,12 @@
 #ifndef SMA_CONSOLE_PREVIEW
 #define SMA_CONSOLE_PREVIEW RIG_FEATURE_PREVIEW
 #endif
+// Inverse + PID with the known future (sma::LeadConfig: `mode ffpid` on step, sine and traj):
+// ~1.1 KB of flash the Uno images do not have yet (docs/control.md section 31); measured by
+// the image sma_firmware_lead_uno.
+#ifndef RIG_FEATURE_LEAD
+#define RIG_FEATURE_LEAD 0
+#endif
 
 struct RigBoard {
   static constexpr double tick_hz() { return RIG_TICK_HZ; }
@@ -45,6 +51,7 @@ struct RigBoard {
   static constexpr bool train() { return RIG_FEATURE_TRAIN != 0; }
   static constexpr bool compensate() { return RIG_FEATURE_COMPENSATE != 0; }
   static constexpr bool preview() { return RIG_FEATURE_PREVIEW != 0; }
+  static constexpr bool lead() { return RIG_FEATURE_LEAD != 0; }
 };
 
 #endif  // RIG_BOARD_H

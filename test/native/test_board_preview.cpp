@@ -22,6 +22,11 @@ struct Rig : BoardTestRig {
   static constexpr bool preview() { return Preview; }
 };
 
+// A rig with inverse + PID with the known future (Rig::lead(), RIG_FEATURE_LEAD).
+struct RigLead : Rig<false> {
+  static constexpr bool lead() { return true; }
+};
+
 // A rig whose preview runs another config than the default one: 2 grid steps a tick.
 struct RigTwoSteps : Rig<true> {
   static constexpr uint8_t preview_steps_per_tick() { return 2; }
@@ -251,4 +256,40 @@ TEST(BoardPreview, LeavingThePreviewKeepsTheTemperatureEstimate) {
   EXPECT_LT(pv.temp_gap_C, 3.0);
 }
 
+}  // namespace
+
+namespace {
+// Inverse + PID with the known future on the board (Rig::lead(): `mode ffpid` on a reference,
+// the lookahead between ticks, lead 3 s on the sine and 10 s on steps): the same issue-13
+// comparison as the Uno FIL test fil_lead, on the board's own loop (rig-like wire, its ADC and PWM),
+// against PID alone on the same board and inverse + PID on the board without the feature.
+TEST(BoardLead, BeatsPidAloneAndInversePidOnTheBoard) {
+  for (int sine = 1; sine >= 0; --sine) {
+    const char* command = sine ? "sine" : "step";
+    const double seconds = sine ? 100.0 : sma::Reference::multi_step().duration();
+    Bench<false, RigLead> lead, pid;
+    Bench<false> paper;
+    pid.cmd("mode pid");
+    paper.cmd("mode ffpid");
+    auto metrics = [&](const std::vector<sma_host::Sample>& r) {
+      return sine ? sma_host::sine_metrics(r, 50.0) : sma_host::step_metrics(r, 25.0);
+    };
+    const sma_host::Metrics ml = metrics(lead.run(command, seconds, 0));
+    const sma_host::Metrics mp = metrics(pid.run(command, seconds, 0));
+    const sma_host::Metrics mf = metrics(paper.run(command, seconds, 0));
+    printf("board, rig-like, %s: lead max %.4f rms %.4f | PID %.4f %.4f | inverse + PID %.4f %.4f\n", command,
+           ml.max_mm, ml.rms_mm, mp.max_mm, mp.rms_mm, mf.max_mm, mf.rms_mm);
+    EXPECT_LT(ml.max_mm, mp.max_mm);
+    EXPECT_LT(ml.rms_mm, mp.rms_mm);
+    EXPECT_LT(ml.max_mm, mf.max_mm);
+    EXPECT_LT(ml.rms_mm, mf.rms_mm);
+    if (sine) {  // issue 13's sine limits
+      EXPECT_LE(ml.max_mm, 0.12);
+      EXPECT_LE(ml.rms_mm, 0.05);
+    } else {
+      EXPECT_LE(ml.rms_mm, 0.05);
+      EXPECT_LE(ml.wrong_way_mm, 0.03);  // after each step (before a down-step: docs/control.md section 31)
+    }
+  }
+}
 }  // namespace

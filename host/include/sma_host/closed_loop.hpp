@@ -59,6 +59,7 @@ struct RunSetup {
   sma::Effects model_effects;
   sma::ControllerConfig config;
   sma::PreviewConfig preview;     // Mode::Preview (dt and v_max come from config)
+  sma::LeadConfig lead;           // Mode::FeedforwardPid with the known future (lead.lead_s > 0)
   // preview.plan_in_step = false: plan_step() calls after each tick's step() (the board's idle
   // time between ticks) on the Controller path; < 0: the config's, preview.plan_passes() (the
   // Board's rule, Board::plan()).
@@ -163,7 +164,9 @@ template <class T, class PlantT>
 std::vector<Sample> run_closed_loop_on(PlantT& plant, const RunSetup& s) {
   if (s.mode == sma::Mode::Preview) return run_preview_loop_on<T>(plant, s);
   sma::Controller<T> ctl(s.model_params, s.model_effects, s.config);
-  sma::ReferenceGen<T> ref(s.reference);
+  sma::ReferenceGen<T> ref(s.reference, s.config.dt);
+  const bool lead = s.lead.on();
+  const uint32_t lead_ticks = s.lead.lead_ticks(s.config.dt), sample_ticks = s.lead.sample_ticks(s.config.dt);
   sma::SensorPredictor<T> sensor(ctl.inverse().curves(), s.model_params, s.model_effects, s.config.dt);
   const bool compensate = s.compensate_sensor && has_sensor_effects(s.model_effects);
   auto feedback = [&](double meas) {
@@ -171,8 +174,11 @@ std::vector<Sample> run_closed_loop_on(PlantT& plant, const RunSetup& s) {
     return compensate ? sensor.correct(m, ctl.wire_temperature()) : m;
   };
   ctl.set_mode(s.mode, feedback(plant.measure()));
-  return run_loop_on<T>(plant, s, ref, [&](double, T r, double meas) {
-    const double v = sma::to_double(ctl.step(r, feedback(meas)));
+  return run_loop_on<T>(plant, s, ref, [&](double t, T r, double meas) {
+    // The known future as the board reads it (ReferenceGen::lookahead at the tick).
+    const uint32_t k = static_cast<uint32_t>(t / s.config.dt + 0.5);
+    const sma::Lookahead<T> future = lead ? ref.lookahead(k, lead_ticks, sample_ticks, s.config.dt) : sma::Lookahead<T>{r, r};
+    const double v = sma::to_double(ctl.step(r, feedback(meas), future, lead));
     return Command{v, sma::to_double(ctl.v1())};
   });
 }

@@ -1,7 +1,8 @@
 // Tuning: every controller is tuned for its own best result by the same method, never
 // handicapped. Method: a coarse log-grid over its settings ((kp, ki, kd) for the PID modes;
 // (track_s, offset_tau_s) for the preview controller, its trade-off cool_weight being the
-// user's choice), then coordinate descent with shrinking factors around the best point. Each
+// user's choice; the lead lead_s of inverse + PID with the known future on a grid, each lead
+// with its own tuned (kp, ki, kd)), then coordinate descent with shrinking factors around the best point. Each
 // controller is tuned per test and condition, for an objective (metrics.hpp):
 //  - HeatingOnly (the paper's figure): max |error| while heating + 0.1x the RMS error;
 //  - WholeRun (what the plot shows): whole-run RMS + 0.1x the whole-run max.
@@ -93,6 +94,29 @@ inline TuneResult tune_pid(const RunSetup& base, Objective o = Objective::Heatin
           consider(g);
         }
       }
+    }
+  }
+  return best;
+}
+
+struct LeadTuneResult {
+  double lead_s = 0.0;
+  TuneResult pid;  // the gains tuned for that lead
+};
+
+// Inverse + PID with the known future (LeadConfig::lead_s): the lead on a grid from 1 s
+// (about the reversal's reheat) to 12 s (past the ~9 s that the wire takes to cool passively
+// from the top of its stroke to T_MSi), each with its PID tuned as tune_pid does; the best by
+// the same objective.
+inline LeadTuneResult tune_lead(RunSetup base, Objective o = Objective::WholeRun) {
+  base.mode = sma::Mode::FeedforwardPid;
+  LeadTuneResult best;
+  for (double lead : {1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 10.0, 12.0}) {
+    base.lead.lead_s = lead;
+    const TuneResult r = tune_pid(base, o);
+    if (r.cost < best.pid.cost) {
+      best.lead_s = lead;
+      best.pid = r;
     }
   }
   return best;

@@ -128,6 +128,21 @@ template <class R>
 constexpr auto rig_preview(int) -> decltype(R::preview()) { return R::preview(); }
 template <class R>
 constexpr bool rig_preview(long) { return false; }
+// Rig::lead(), or false for a rig that does not name the feature.
+template <class R>
+constexpr auto rig_lead(int) -> decltype(R::lead()) { return R::lead(); }
+template <class R>
+constexpr bool rig_lead(long) { return false; }
+// The next tick's known future (Board::prepare_future), on a board with the lead only.
+template <class T, bool kLead>
+struct FutureSlot {
+  Lookahead<T>* future() { return &future_; }
+  Lookahead<T> future_;
+};
+template <class T>
+struct FutureSlot<T, false> {
+  Lookahead<T>* future() { return nullptr; }
+};
 // Rig::preview_steps_per_tick(), or the default config's.
 template <class R>
 constexpr auto rig_steps_per_tick(int) -> decltype(R::preview_steps_per_tick()) { return R::preview_steps_per_tick(); }
@@ -144,6 +159,9 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   // default for references; it plans between ticks (plan()).
   static constexpr bool kPreview = detail::rig_preview<Rig>(0);
   static_assert(!kPreview || SMA_CONSOLE_PREVIEW, "the preview needs its console rows (SMA_CONSOLE_PREVIEW 1)");
+  // Inverse + PID with the known future (Rig::lead(), LeadConfig): `mode ffpid` on a reference
+  // uses it. ~1.1 KB of flash the Uno images do not have yet (docs/control.md section 31).
+  static constexpr bool kLead = detail::rig_lead<Rig>(0);
   typedef Controller<T> Ctl;
   typedef ReferenceGen<T> Gen;
   typedef console::LineBuffer::Status LineStatus;
@@ -259,7 +277,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
       ref = kPreview ? ref_at(t_of(k)) : gen().at_tick(k, 1.0 / Rig::tick_hz());
     }
     // (The preview runs instead of the Controller: its wire estimate is the one watched.)
-    const T v_cmd = preview_on() ? preview().step(ref, Future{this, t_of(k)}, d) : ctl().step(ref, d);
+    const T v_cmd = preview_on() ? preview().step(ref, Future{this, t_of(k)}, d) : (kLead ? ctl().step(ref, d, *v_.x.future(), lead_on()) : ctl().step(ref, d));
 
     SafetyInputOf<T> in;
     in.sensor_v = volts;
@@ -294,6 +312,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     live_.x.temp_C = to_double(wire_temperature());
     live_.x.fault = safety_.x.fault();
     ctl().prepare_next_tick();  // a reversal's loop ahead of its tick (Controller)
+    if (kLead) prepare_future(v_.x.ticks_ - v_.x.run_start_ + 1u);  // the next tick's known future, likewise
     if (preview_on()) preview().prepare_next_tick();  // the preview's model wire, likewise
     if (state_.s.tele) {
       if (v_.x.header_due_ && !state_.s.plot) {
@@ -652,6 +671,26 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     r.constant_mm = state_.s.pos_mm;
     new (&gen_.gen) Gen(r, 1.0 / Rig::tick_hz());
     r.kind = RefKind::Trajectory;
+    if (kLead) prepare_future(0u);
+  }
+
+  // Inverse + PID with the known future (LeadConfig, issue 13) on the references that have one:
+  // the lead tuned per test by tune_lead (bench_tracking, docs/control.md section 31): 3 s on
+  // the sine (and a trajectory's ramps), 10 s on steps; the peak window LeadConfig's.
+  static constexpr LeadConfig lead_config(RefKind k) {
+    return LeadConfig{k == RefKind::MultiStep ? 10.0 : k == RefKind::Constant ? 0.0 : 3.0, LeadConfig().peak_window_s};
+  }
+  bool lead_on() const {
+    return kLead && ctl().mode() == Mode::FeedforwardPid && !v_.x.training_ && state_.s.run_kind != RefKind::Constant;
+  }
+  // The known future of run tick k (ReferenceGen::lookahead), between ticks.
+  SMA_NOINLINE void prepare_future(uint32_t k) {
+    if (!lead_on()) return;
+    const double dt = 1.0 / Rig::tick_hz();
+    const RefKind kind = state_.s.run_kind;
+    *v_.x.future() = gen().lookahead(k, kind == RefKind::MultiStep ? lead_config(RefKind::MultiStep).lead_ticks(dt)
+                                                                  : lead_config(RefKind::Sine).lead_ticks(dt),
+                                   LeadConfig().sample_ticks(dt), dt);
   }
 
   // The model commands (storage.hpp via console::model_command) on `p`, a scratch Params.
@@ -796,7 +835,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     bool header_due_;     // the telemetry header is due
   };
   // (The row slot after the scalars, zeroed with them: none on a board without the preview.)
-  struct Vars : Scalars, detail::RowSlot<kPreview> {};
+  struct Vars : Scalars, detail::RowSlot<kPreview>, detail::FutureSlot<T, kLead> {};
   Zeroed<Vars> v_;
 };
 

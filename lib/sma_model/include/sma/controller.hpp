@@ -12,6 +12,7 @@
 #include "mechanics.hpp"
 #include "params.hpp"
 #include "pid.hpp"
+#include "reference.hpp"
 #include "scalar.hpp"
 #include "thermal.hpp"
 
@@ -42,6 +43,32 @@ struct ControllerConfig {
     if (!(dt > 0.0 && dt <= 1.0)) return "dt must be in 0..1";
     if (!(v_max > 0.0 && v_max <= 5.0)) return "v_max must be in 0..5";
     return gains.check();
+  }
+};
+
+// FeedforwardPid with the known future (issue 13): the caller's setting (the board's console,
+// the host's RunSetup), read through ReferenceGen::lookahead into Controller::step.
+struct LeadConfig {
+  // s; 0: the paper's eq 18. The inverse model reads the reference lead_s ahead where it is
+  // lower than now: cooling is passive and slow, the cooling branch is taken lead_s before the
+  // reference falls (the heating/cooling trade-off: a longer lead leaves a setpoint earlier
+  // for the fall that follows). And it stops
+  // a heating where the minor-loop rise (eqs 5-6) carries the wire to the highest reference of
+  // the next peak_window_s (InverseModel::step's peak rule). The PID keeps the error r - D.
+  double lead_s = 0.0;
+  double peak_window_s = 10.0;
+
+  constexpr const char* check() const {
+    if (!(lead_s >= 0.0 && lead_s <= 20.0)) return "lead_s must be in 0..20";
+    if (!(peak_window_s > 0.0 && peak_window_s <= 20.0)) return "peak_window_s must be in 0..20";
+    return nullptr;
+  }
+  constexpr bool on() const { return lead_s > 0.0; }
+  // In ticks of dt (ReferenceGen::lookahead).
+  constexpr uint32_t lead_ticks(double dt) const { return static_cast<uint32_t>(lead_s / dt + 0.5); }
+  // The window's sample spacing (kLookaheadSamples).
+  constexpr uint32_t sample_ticks(double dt) const {
+    return static_cast<uint32_t>(peak_window_s / dt / kLookaheadSamples + 0.5);
   }
 };
 
@@ -89,17 +116,9 @@ class Controller {
   // One tick: reference and measured displacement (mm) -> voltage across the wire, 0..V_max.
   // The wire temperature estimate advances with the voltage actually commanded (eq 1 with the
   // model's effects, WireStep): what the safety limit and the PID's branch limits watch.
-  T step(T ref, T measured) {
-    // The fraction for a phase-dependent resistance comes from the measurement (V_hold and the
-    // estimate); latent heat is left out of the estimate (d(eps)/dt of a noisy measurement
-    // would be all noise).
-    // (Eq 1 of the paper does not need it: skip the work.)
-    if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? inverse_.mechanics().fraction(measured, T_wire_) : T(0);
-    v_ = compute(ref, measured);
-    T_wire_ = inverse_.wire_step()(T_wire_, v_, eps_meas_);
-    hold_ready_ = false;  // V_hold was the old estimate's
-    return v_;
-  }
+  T step(T ref, T measured) { return step_<false>(ref, measured, nullptr, false); }
+  // The same with the known future (LeadConfig; ReferenceGen::lookahead) where `lead`.
+  T step(T ref, T measured, const Lookahead<T>& future, bool lead) { return step_<true>(ref, measured, &future, lead); }
 
   // Between ticks, after the output is written: the feedforward's model wire and the loop of a
   // possible reversal (InverseModel::advance_model, prepare_reversal), work that the next tick
@@ -149,7 +168,23 @@ class Controller {
   // (Out of line: one copy for the tick and prepare_next_tick, flash on the Uno.)
   __attribute__((noinline)) T thermal_hold() const { return inverse_.thermal().hold_voltage(T_wire_, eps_meas_); }
 
-  T compute(T ref, T measured) {
+  // (One template for the two: the paper's compiles to the code it had, the known future folded
+  // away, flash on the Uno; a board with the lead carries only the second, `lead` at run time.)
+  template <bool kLead>
+  T step_(T ref, T measured, const Lookahead<T>* future, bool lead) {
+    // The fraction for a phase-dependent resistance comes from the measurement (V_hold and the
+    // estimate); latent heat is left out of the estimate (d(eps)/dt of a noisy measurement
+    // would be all noise).
+    // (Eq 1 of the paper does not need it: skip the work.)
+    if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? inverse_.mechanics().fraction(measured, T_wire_) : T(0);
+    v_ = compute<kLead>(ref, measured, future, kLead && lead);
+    T_wire_ = inverse_.wire_step()(T_wire_, v_, eps_meas_);
+    hold_ready_ = false;  // V_hold was the old estimate's
+    return v_;
+  }
+
+  template <bool kLead>
+  T compute(T ref, T measured, const Lookahead<T>* future, bool lead) {
     v1_ = T(0);
     v2_ = T(0);
     if (!is_finite(ref) || !is_finite(measured)) return T(0);
@@ -160,10 +195,10 @@ class Controller {
         v2_ = pid_.step(ref - measured, measured, T(0), v_max_);
         break;
       case Mode::Feedforward:
-        v1_ = inverse_.step(ref);  // 0..V_max: the inverse has the same V_max
+        v1_ = feedforward<kLead>(ref, future, lead);  // 0..V_max: the inverse has the same V_max
         break;
       case Mode::FeedforwardPid: {
-        v1_ = inverse_.step(ref);
+        v1_ = feedforward<kLead>(ref, future, lead);
         // PID limits: V1 + V2 inside 0..V_max (eq 18; the anti-windup sees the clamp), and
         // never against the branch the reference is on. While it heats, the PID may slow the
         // heating but not cool the wire: cooling opens a minor loop whose rise (eqs 5-6) moves
@@ -175,12 +210,24 @@ class Controller {
         T lo = -v1_, hi = v_max_ - v1_;
         if (inverse_.heating()) lo = max(lo, v_hold - v1_);
         else hi = min(hi, max(v_hold - v1_, lo));
+        // On the rise of the peak rule cooling moves the wire up, heating stalls it on a flat
+        // stage: the error's sign says nothing of the voltage's, the feedforward rides alone.
+        if (lead && inverse_.riding()) lo = hi = T(0);
         v2_ = pid_.step(ref - measured, measured, lo, hi);
         break;
       }
       default: return T(0);
     }
     return clamp(v1_ + v2_, T(0), v_max_);  // NaN -> 0 V (clamp maps it to lo)
+  }
+
+  // V1: the inverse model of the reference, with the known future where `lead`: the future's
+  // `ahead` on the stroke (NaN: the present reference) and its peak.
+  template <bool kLead>
+  T feedforward(T ref, const Lookahead<T>* future, bool lead) {
+    if (!kLead) return inverse_.step(ref);
+    const T ahead = lead && is_finite(future->ahead) ? clamp(future->ahead, T(0), inverse_.mechanics().g) : ref;
+    return inverse_.step(ahead, future->peak, lead);
   }
 
   ControllerConfig cfg_;

@@ -83,7 +83,18 @@ class InverseModel {
   }
 
   // One tick: reference u (mm) -> feedforward V1 in 0..V_max.
-  T step(T u) {
+  T step(T u) { return step_(u, u, false); }
+  // The same with the known future (issue 13): `peak`, the highest reference of the next few
+  // seconds. A heating stops where the minor-loop rise (eqs 5-6) of a reversal at the present
+  // point would carry the wire to that peak: the branch turns to cooling and the wire rides the
+  // rise up (lower temperature, higher fraction) while the reference still climbs, instead of
+  // being heated to the peak and rising past it when the cooling starts (Fig. 12).
+  // (`peak_rule` false: step(u).)
+  T step(T u, T peak, bool peak_rule) { return step_(u, peak, peak_rule); }
+
+  // (The two inline into one body each: the paper's step(u) compiles to the code it had, the
+  // rule folded away, flash on the Uno; a board with the lead carries only the second.)
+  __attribute__((always_inline)) inline T step_(T u, T peak, bool peak_rule) {
     advance_model();  // the last tick's, where the caller did not run it between ticks
     if (!is_finite(u)) u = u_prev_;  // hold the last reference on NaN
     u_prev_ = u;
@@ -92,8 +103,16 @@ class InverseModel {
     // of a fixed-point scalar and would flip on rounding.
     if (heating_ ? u > u_extreme_ : u < u_extreme_) u_extreme_ = u;
     if (heating_ ? u < u_extreme_ - deadband_ : u > u_extreme_ + deadband_) {
-      heating_ = !heating_;
+      // A rising reference that the rise still reaches (above its end, below its top) stays
+      // on the cooling branch: it is followed up the rise.
       u_extreme_ = u;
+      if (!(peak_rule && !heating_ && on_rise(mech_.fraction(u)))) heating_ = !heating_;
+    }
+    // The peak rule: only while the reference still climbs towards the peak (a hold is not a
+    // peak) and the present heating transformed (a rise exists: its top above eps).
+    if (peak_rule && heating_ && memory_.heating() && peak > u + deadband_) {
+      const CoolingLoop<T>& L = memory_.prepare_cooling_shape();  // (top needs no rates)
+      if (L.top > memory_.eps() && !(mech_.fraction(peak) > L.top)) heating_ = false;
     }
 
     // Eq 14 then eq 15 or 16. With thermal expansion eq 14 needs the temperature it leads to,
@@ -121,14 +140,15 @@ class InverseModel {
     } else {
       // Eq 16 needs only the loop's shape: its rates wait (prepare_cooling_shape).
       const CoolingLoop<T>& loop = memory_.prepare_cooling_shape();
-      T_new = curves_.cool_temperature(loop, e);  // eq 16, this loop's T_MSi
-      if (expands)
+      const bool riding = peak_rule && !(e < memory_.eps()) && on_rise(e);  // (on_rise finishes the loop)
+      T_new = riding ? curves_.rise_temperature(loop, e) : curves_.cool_temperature(loop, e);  // eq 16, this loop's T_MSi
+      if (expands && !riding)
         for (int i = 0; i < kExpansionSteps; ++i) {
           e = mech_.fraction(u, T_new);
           T_new = curves_.cool_temperature(loop, e);
         }
       // Eq 16 inverts eq 11 only strictly inside the cooling stage.
-      on_curve = T_new < T_d && e > T(0) && e < loop.top && curves_.has_cooling_stage(loop);
+      on_curve = !riding && T_new < T_d && e > T(0) && e < loop.top && curves_.has_cooling_stage(loop);
       T_new = min(T_new, T_d);
     }
     if (on_curve) memory_.update(T_new, e);
@@ -173,6 +193,9 @@ class InverseModel {
   // (After step(): the model wire at the end of its tick, advanced or not.)
   T model_temperature() const { return model_pending_ ? wire_step_(T_m_, v1_, eps_f_, deps_dt_) : T_m_; }
   bool heating() const { return heating_; }
+  // On a cooling branch above the end of its loop's rise (eqs 5-6; the peak rule's ride):
+  // cooling moves the wire up.
+  bool riding() const { return !heating_ && memory_.temperature() > memory_.loop().T_ii; }
   const Hysteresis<T>& memory() const { return memory_; }
   const Thermal<T>& thermal() const { return thermal_; }
   const Mechanics<T>& mechanics() const { return mech_; }
@@ -186,6 +209,14 @@ class InverseModel {
 
  private:
   static constexpr int kExpansionSteps = 3;
+
+  // Fraction e is on the rise of the memory's loop from where the memory is: between the
+  // rise's end and its top, the memory still above the rise's end temperature T_ii.
+  // (Out of line: the branch decision and the cooling branch share one copy, flash on the Uno.)
+  __attribute__((noinline)) bool on_rise(T e) const {
+    const CoolingLoop<T>& L = memory_.loop();
+    return e < L.top && memory_.temperature() > L.T_ii;
+  }
 
   // (Out of line: one copy for advance_model's two callers, flash on the Uno.)
   __attribute__((noinline)) void advance_model_now() {

@@ -76,6 +76,15 @@ struct Reference : RefShape {
   }
 };
 
+// The known future the inverse model reads (LeadConfig, ReferenceGen::lookahead):
+// `ahead`, the reference lead_s ahead where it is below the present one (else the present), and
+// `peak`, the highest reference of the next peak_window_s.
+template <class T>
+struct Lookahead {
+  T ahead, peak;
+};
+constexpr uint8_t kLookaheadSamples = 8;  // the window's samples (ReferenceGen::lookahead)
+
 // Evaluates a Reference in the scalar type T; parameters are converted once.
 template <class T>
 class ReferenceGen {
@@ -98,6 +107,17 @@ class ReferenceGen {
   T at_tick(uint32_t k, double dt) const {
     if (r_.kind == RefKind::Sine) return sine_at(k * turns_per_tick_);
     return at(static_cast<double>(k) * dt);
+  }
+
+  // The known future at tick k: the reference lead_ticks ahead where lower than now, and the
+  // peak over kLookaheadSamples points sample_ticks apart (the window; the paper's sine peak
+  // lies within 0.2 % of its span of the highest sample of a 10 s window; a step is seen at most
+  // a sample late).
+  Lookahead<T> lookahead(uint32_t k, uint32_t lead_ticks, uint32_t sample_ticks, double dt) const {
+    const T now = at_tick(k, dt);
+    Lookahead<T> f{min(now, at_tick(k + lead_ticks, dt)), now};
+    for (uint8_t i = 0; i < kLookaheadSamples; ++i) f.peak = max(f.peak, at_tick(k += sample_ticks, dt));
+    return f;
   }
 
   // Reference at t seconds (t >= 0).

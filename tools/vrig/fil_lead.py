@@ -1,0 +1,105 @@
+#!/usr/bin/env python3
+"""Firmware in the loop: inverse + PID with the known future (sma::LeadConfig, the Uno image built
+with RIG_FEATURE_LEAD=1) against PID alone on the same ELF and the paper's inverse + PID on the
+image without the lead (the console has no setting that turns the lead off), in the virtual rig
+(2 um noise).
+
+    fil_lead.py --vrig BUILD/tools/vrig/vrig --elf BUILD/firmware/sma_firmware_lead_uno.elf \\
+                --base-elf BUILD/firmware/sma_firmware.elf --metrics BUILD/tools/host/sma_metrics --out DIR
+
+Runs (`mode ffpid` / `mode pid`, the firmware's default gains): the paper's sine, 100 s (sma_metrics
+scores the second period), and the multi-step's first 125 s (up-steps and the 0.8 -> 0.5 mm
+down-step). Metrics of sma_metrics on the measured position, whole run (issue 13). Pass: on both
+tests the lead's whole-run max and RMS below PID alone's and inverse + PID's; the sine within issue
+13's max <= 0.12 mm and RMS <= 0.05 mm; the steps' RMS <= 0.05 mm and wrong-way after a step
+<= 0.03 mm. Printed, not asserted (docs/control.md section 31): the wrong-way before a down-step
+(the lead's minor-loop rise happens before the step) and the control section's cycles (the image
+is over issue 12's flash budget anyway). Writes DIR/fil_lead.json.
+"""
+import argparse
+import concurrent.futures
+import json
+import os
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from paper_tests import metrics, read_log  # noqa: E402
+
+RUNS = (("sine", "sine", 100.0), ("steps", "step", 125.0))
+# (row, ELF argument, console mode)
+ROWS = (("lead", "elf", "ffpid"), ("pid", "elf", "pid"), ("ffpid", "base_elf", "ffpid"))
+
+
+def run(a, test, command, duration, row, elf, mode):
+    log = os.path.join(a.out, f"{test}_{row}.csv")
+    script = log + ".script"
+    with open(script, "w") as f:
+        f.write(f"0.0 tele on\n0.02 mode {mode}\n0.05 {command}\n")
+    cyc = os.path.join(a.out, f"{test}_{row}_cycles.json")
+    cmd = [a.vrig, getattr(a, elf), "--script", script, "--duration", str(duration + 0.2), "--log", log,
+           "--noise-mm", "0.002", "--quiet", "--cycles-json", cyc]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"vrig failed ({' '.join(cmd)}):\n{r.stderr[-2000:]}")
+    d = read_log(log)
+    start = float(d["t_s"][d["ref_mm"] > 0][0])  # the reference starts with the command
+    m = metrics(a.metrics, log, test, start)
+    with open(cyc) as f:
+        m["cycles"] = json.load(f)
+    return m
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--vrig", required=True)
+    ap.add_argument("--elf", required=True, help="the Uno image with the lead")
+    ap.add_argument("--base-elf", required=True, help="the same image without it (inverse + PID)")
+    ap.add_argument("--metrics", required=True, help="sma_metrics")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--jobs", type=int, default=2)
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    res = {}
+    with concurrent.futures.ThreadPoolExecutor(a.jobs) as pool:
+        futs = {pool.submit(run, a, t, c, d, row, elf, mode): (t, row) for t, c, d in RUNS for row, elf, mode in ROWS}
+        for fu in concurrent.futures.as_completed(futs):
+            t, row = futs[fu]
+            res[f"{t}_{row}"] = fu.result()
+
+    print("| test | controller | max mm | RMS mm | max rise | max fall | wrong-way after / before a step | SSE mm | "
+          "control cycles max/mean |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    labels = {"lead": "inverse + PID, known future", "pid": "PID alone", "ffpid": "inverse + PID (image without)"}
+    for t, _, _ in RUNS:
+        for row, _, _ in ROWS:
+            r = res[f"{t}_{row}"]
+            c = r["cycles"]
+            print(f"| {t} | {labels[row]} | {r['max_mm']:.4f} | {r['rms_mm']:.4f} | {r['max_rise_mm']:.4f} | "
+                  f"{r['max_fall_mm']:.4f} | {r['wrong_way_mm']:.4f} / {r['wrong_way_before_mm']:.4f} | "
+                  f"{r['sse_mm']:.4f} | {c['control_cycles_max']}/{c['control_cycles_mean']:.0f} |")
+    with open(os.path.join(a.out, "fil_lead.json"), "w") as f:
+        json.dump(res, f, indent=1)
+
+    checks = []
+    for t, _, _ in RUNS:
+        l = res[f"{t}_lead"]
+        for other in ("pid", "ffpid"):
+            o = res[f"{t}_{other}"]
+            checks.append((f"{t} max below {labels[other]}", l["max_mm"] < o["max_mm"]))
+            checks.append((f"{t} RMS below {labels[other]}", l["rms_mm"] < o["rms_mm"]))
+    s, p = res["sine_lead"], res["steps_lead"]
+    checks += [
+        ("sine max <= 0.12 mm", s["max_mm"] <= 0.12),
+        ("sine RMS <= 0.05 mm", s["rms_mm"] <= 0.05),
+        ("steps RMS <= 0.05 mm", p["rms_mm"] <= 0.05),
+        ("steps wrong-way after a step <= 0.03 mm", p["wrong_way_mm"] <= 0.03),
+    ]
+    bad = [n for n, ok in checks if not ok]
+    for n, ok in checks:
+        print(("PASS " if ok else "FAIL ") + n)
+    sys.exit(1 if bad else 0)
+
+
+if __name__ == "__main__":
+    main()
