@@ -20,11 +20,10 @@ import argparse
 import concurrent.futures
 import json
 import os
-import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from paper_tests import metrics, read_log  # noqa: E402
+from paper_tests import scored_run  # noqa: E402
 
 RUNS = (("sine", "sine", 100.0), ("steps", "step", 125.0))
 # (row, ELF argument, console mode)
@@ -32,22 +31,7 @@ ROWS = (("lead", "elf", "ffpid"), ("pid", "elf", "pid"), ("ffpid", "base_elf", "
 
 
 def run(a, test, command, duration, row, elf, mode):
-    log = os.path.join(a.out, f"{test}_{row}.csv")
-    script = log + ".script"
-    with open(script, "w") as f:
-        f.write(f"0.0 tele on\n0.02 mode {mode}\n0.05 {command}\n")
-    cyc = os.path.join(a.out, f"{test}_{row}_cycles.json")
-    cmd = [a.vrig, getattr(a, elf), "--script", script, "--duration", str(duration + 0.2), "--log", log,
-           "--noise-mm", "0.002", "--quiet", "--cycles-json", cyc]
-    r = subprocess.run(cmd, capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit(f"vrig failed ({' '.join(cmd)}):\n{r.stderr[-2000:]}")
-    d = read_log(log)
-    start = float(d["t_s"][d["ref_mm"] > 0][0])  # the reference starts with the command
-    m = metrics(a.metrics, log, test, start)
-    with open(cyc) as f:
-        m["cycles"] = json.load(f)
-    return m
+    return scored_run(a, test, command, duration, row, getattr(a, elf), mode)
 
 
 def main():

@@ -20,33 +20,17 @@ import argparse
 import concurrent.futures
 import json
 import os
-import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from paper_tests import metrics, read_log  # noqa: E402
+from paper_tests import scored_run  # noqa: E402
 
 RUNS = (("sine", "sine", 100.0), ("steps", "step", 125.0))
 MODES = (("preview", "preview"), ("ffpid", "inverse + PID"))
 
 
 def run(a, test, command, duration, mode):
-    log = os.path.join(a.out, f"{test}_{mode}.csv")
-    script = log + ".script"
-    with open(script, "w") as f:
-        f.write(f"0.0 tele on\n0.02 mode {mode}\n0.03 cool 1\n0.05 {command}\n")
-    cyc = os.path.join(a.out, f"{test}_{mode}_cycles.json")
-    cmd = [a.vrig, a.elf, "--mcu", a.mcu, "--script", script, "--duration", str(duration + 0.2), "--log", log,
-           "--noise-mm", "0.002", "--quiet", "--cycles-json", cyc]
-    r = subprocess.run(cmd, capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit(f"vrig failed ({' '.join(cmd)}):\n{r.stderr[-2000:]}")
-    d = read_log(log)
-    start = float(d["t_s"][d["ref_mm"] > 0][0])  # the reference starts with the command
-    m = metrics(a.metrics, log, test, start)
-    with open(cyc) as f:
-        m["cycles"] = json.load(f)
-    return m
+    return scored_run(a, test, command, duration, mode, a.elf, mode, pre=["cool 1"], mcu=a.mcu)
 
 
 def main():

@@ -41,18 +41,36 @@ def tuned_gains(path, test, mode):
     return None
 
 
-def run_vrig(vrig, elf, mode, command, duration, log, noise, cycles, gains):
+def run_vrig(vrig, elf, mode, command, duration, log, noise, cycles, gains=None, pre=(), mcu=None):
+    """One run of the ELF in the virtual rig: telemetry on, `mode`, the `pre` commands (PID gains
+    when `gains`), then the reference `command`; the log and the cycle counts written."""
+    pre = (["gains %.6g %.6g %.6g" % gains] if gains else []) + list(pre)
     script = log + ".script"
     with open(script, "w") as f:
         f.write(f"0.0 tele on\n0.02 mode {mode}\n")
-        if gains:
-            f.write("0.03 gains %.6g %.6g %.6g\n" % gains)
+        for i, c in enumerate(pre):
+            f.write(f"{0.03 + 0.005 * i:g} {c}\n")
         f.write(f"0.05 {command}\n")
-    cmd = [vrig, elf, "--script", script, "--duration", str(duration + 0.2), "--log", log,
-           "--noise-mm", str(noise), "--quiet", "--cycles-json", cycles]
+    cmd = [vrig, elf] + (["--mcu", mcu] if mcu else []) + [
+        "--script", script, "--duration", str(duration + 0.2), "--log", log,
+        "--noise-mm", str(noise), "--quiet", "--cycles-json", cycles]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         sys.exit(f"vrig failed ({' '.join(cmd)}):\n{r.stderr[-2000:]}")
+
+
+def scored_run(a, test, command, duration, tag, elf, mode, pre=(), mcu=None):
+    """run_vrig, then the whole-run metrics from the command on (sma_metrics) and the cycle
+    counts: what the FIL comparisons (fil_preview, fil_lead) tabulate per run."""
+    log = os.path.join(a.out, f"{test}_{tag}.csv")
+    cyc = os.path.join(a.out, f"{test}_{tag}_cycles.json")
+    run_vrig(a.vrig, elf, mode, command, duration, log, 0.002, cyc, pre=pre, mcu=mcu)
+    d = read_log(log)
+    start = float(d["t_s"][d["ref_mm"] > 0][0])  # the reference starts with the command
+    m = metrics(a.metrics, log, test, start)
+    with open(cyc) as f:
+        m["cycles"] = json.load(f)
+    return m
 
 
 def read_log(path):
