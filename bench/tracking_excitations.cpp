@@ -2,11 +2,13 @@
 // `traj` takes it (random setpoints over the stroke, random holds, small steps and reversals),
 // triangles, sines of other periods and amplitudes, a descending staircase, a ramp and hold.
 // Every controller with the firmware's settings (console::default_gains, PreviewConfig()): PID
-// alone, inverse + PID, the preview as the host runs it (plans in its tick, double) and as the
-// board runs it (plans between ticks, float), rig-like (model.md: noise, ADC, PWM, a tick of
-// computation delay), on the library's plant and on plant B (plant_b.hpp, written apart, its
-// literal re-heat reading). Whole-run metrics (metrics.hpp, reference_metrics: from t = 0, a
-// sine after its first period). Prints a Markdown table and writes JSON; progress on stderr.
+// alone, inverse + PID, inverse + PID with the known future ("lead", the board's lead for the
+// reference: board_lead_s; double, and float as on the Uno), the preview as the host runs it
+// (plans in its tick, double) and as the board runs it (plans between ticks, float), rig-like
+// (model.md: noise, ADC, PWM, a tick of computation delay), on the library's plant and on plant
+// B (plant_b.hpp, written apart, its literal re-heat reading). Whole-run metrics (metrics.hpp,
+// reference_metrics: from t = 0, a sine after its first period). Prints a Markdown table and
+// writes JSON; progress on stderr.
 //
 //   bench_tracking_excitations [--json FILE] [--only NAME] [--csv DIR] [--traj-lines]
 //   --only NAME   the references whose name contains NAME
@@ -130,13 +132,28 @@ std::vector<Excitation> excitations() {
 struct Ctl {
   const char* name;
   sma::Mode mode;
-  bool board;  // the preview as the board runs it: plans between ticks, float
+  bool board;  // float, the board's scalar (the preview: plans between ticks too)
+  bool lead;   // inverse + PID with the known future, the board's lead (board_lead_s)
 };
-const Ctl kControllers[] = {{"PID", sma::Mode::Pid, false},
-                            {"inverse+PID", sma::Mode::FeedforwardPid, false},
-                            {"preview", sma::Mode::Preview, false},
-                            {"preview (board)", sma::Mode::Preview, true}};
+const Ctl kControllers[] = {{"PID", sma::Mode::Pid, false, false},
+                            {"inverse+PID", sma::Mode::FeedforwardPid, false, false},
+                            {"lead", sma::Mode::FeedforwardPid, false, true},
+                            {"lead (float)", sma::Mode::FeedforwardPid, true, true},
+                            {"preview", sma::Mode::Preview, false, false},
+                            {"preview (board)", sma::Mode::Preview, true, false}};
+const size_t kNumCtl = sizeof kControllers / sizeof kControllers[0];
 const char* kPlants[] = {"library", "B (literal)"};
+
+// The lead the board gives a reference (Board::lead_config by the run's kind): 10 s on `step`, 3 s
+// on `sine` and `traj`, none on a constant. The board's `step` and `sine` are the paper's only
+// (board_commands refuses others), so every reference here is uploaded as `traj` and gets 3 s: the
+// stairs down too, though it is steps like the paper's multi-step.
+double board_lead_s(const sma::Reference& r) {
+  const sma::Reference paper = sma::Reference::multi_step();
+  bool paper_steps = r.kind == sma::RefKind::MultiStep && r.n_steps == paper.n_steps && r.step_s == paper.step_s;
+  for (uint8_t k = 0; paper_steps && k < r.n_steps; ++k) paper_steps = r.step_mm[k] == paper.step_mm[k];
+  return paper_steps ? 10.0 : r.kind == sma::RefKind::Constant ? 0.0 : 3.0;
+}
 
 RunSetup setup(const Excitation& x, const Ctl& c) {
   RunSetup s;
@@ -144,6 +161,7 @@ RunSetup setup(const Excitation& x, const Ctl& c) {
   s.condition = Condition::rig_like();
   s.reference = x.ref;
   if (c.mode != sma::Mode::Preview) s.config.gains = sma::console::default_gains(c.mode);
+  if (c.lead) s.lead.lead_s = board_lead_s(x.ref);
   s.preview.plan_in_step = !c.board;  // the board: PreviewConfig::plan_passes() after each tick
   return s;
 }
@@ -159,6 +177,7 @@ std::vector<sma_host::Sample> run(int plant, const RunSetup& s) {
 
 struct Row {
   std::string ref, plant, controller;
+  double lead_s;
   Metrics m;
   double v_min, v_max;  // the heater's command over the run, V
 };
@@ -206,14 +225,14 @@ int main(int argc, char** argv) {
   std::vector<Row> rows;
   sma_host::CaseLine progress;
   int done = 0;
-  const int total = static_cast<int>(xs.size()) * 2 * 4;
+  const int total = static_cast<int>(xs.size() * 2 * kNumCtl);
   for (const Excitation& x : xs)
     for (int plant = 0; plant < 2; ++plant)
       for (const Ctl& c : kControllers) {
         progress("[%2d/%d] %-13s %-11s %s", ++done, total, x.name, kPlants[plant], c.name);
         const RunSetup s = setup(x, c);
         const std::vector<sma_host::Sample> r = c.board ? run<float>(plant, s) : run<double>(plant, s);
-        Row row{x.name, kPlants[plant], c.name, sma_host::reference_metrics(r, x.from_s), 1e9, -1e9};
+        Row row{x.name, kPlants[plant], c.name, s.lead.lead_s, sma_host::reference_metrics(r, x.from_s), 1e9, -1e9};
         for (const sma_host::Sample& p : r) {
           row.v_min = p.v < row.v_min ? p.v : row.v_min;
           row.v_max = p.v > row.v_max ? p.v : row.v_max;
@@ -240,11 +259,22 @@ int main(int argc, char** argv) {
   std::printf("\nThe preview's whole-run RMS against the better of PID alone and inverse + PID (ratio > 1: "
               "the preview loses):\n\n| reference | plant | preview | preview (board) | best other | ratio |\n"
               "|---|---|---|---|---|---|\n");
-  for (size_t i = 0; i + 3 < rows.size(); i += 4) {
+  for (size_t i = 0; i + kNumCtl <= rows.size(); i += kNumCtl) {
     const double other = rows[i].m.rms_mm < rows[i + 1].m.rms_mm ? rows[i].m.rms_mm : rows[i + 1].m.rms_mm;
     const char* who = rows[i].m.rms_mm < rows[i + 1].m.rms_mm ? "PID" : "inverse+PID";
     std::printf("| %s | %s | %.4f | %.4f | %.4f (%s) | %.2f |\n", rows[i].ref.c_str(), rows[i].plant.c_str(),
-                rows[i + 2].m.rms_mm, rows[i + 3].m.rms_mm, other, who, rows[i + 2].m.rms_mm / other);
+                rows[i + 4].m.rms_mm, rows[i + 5].m.rms_mm, other, who, rows[i + 4].m.rms_mm / other);
+  }
+
+  // The lead against the same two (the Uno's candidate default for step, sine and traj), RMS and max.
+  std::printf("\nThe lead's whole-run RMS / max against PID alone and inverse + PID (ratio: the lead's RMS over "
+              "the better RMS of the two; > 1: the lead loses):\n\n| reference | plant | lead s | PID | inverse+PID | "
+              "lead | lead (float) | preview | ratio | ratio (float) |\n|---|---|---|---|---|---|---|---|---|---|\n");
+  for (size_t i = 0; i + kNumCtl <= rows.size(); i += kNumCtl) {
+    const double other = rows[i].m.rms_mm < rows[i + 1].m.rms_mm ? rows[i].m.rms_mm : rows[i + 1].m.rms_mm;
+    std::printf("| %s | %s | %g |", rows[i].ref.c_str(), rows[i].plant.c_str(), rows[i + 2].lead_s);
+    for (size_t j = 0; j < 5; ++j) std::printf(" %.4f / %.4f |", rows[i + j].m.rms_mm, rows[i + j].m.max_mm);
+    std::printf(" %.2f | %.2f |\n", rows[i + 2].m.rms_mm / other, rows[i + 3].m.rms_mm / other);
   }
 
   FILE* f = std::fopen(json_path, "w");
@@ -260,11 +290,11 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < rows.size(); ++i) {
     const Row& r = rows[i];
     std::fprintf(f,
-                 "    {\"reference\": \"%s\", \"plant\": \"%s\", \"controller\": \"%s\", \"max_mm\": %.6f, "
+                 "    {\"reference\": \"%s\", \"plant\": \"%s\", \"controller\": \"%s\", \"lead_s\": %g, \"max_mm\": %.6f, "
                  "\"rms_mm\": %.6f, \"max_rise_mm\": %.6f, \"rms_rise_mm\": %.6f, \"max_fall_mm\": %.6f, "
                  "\"rms_fall_mm\": %.6f, \"wrong_way_mm\": %.6f, \"wrong_way_before_mm\": %.6f, \"sse_mm\": %.6f, "
                  "\"settle_s\": %.3f, \"settle_max_s\": %.3f, \"v_min\": %.4f, \"v_max\": %.4f}%s\n",
-                 r.ref.c_str(), r.plant.c_str(), r.controller.c_str(), r.m.max_mm, r.m.rms_mm, r.m.max_rise_mm,
+                 r.ref.c_str(), r.plant.c_str(), r.controller.c_str(), r.lead_s, r.m.max_mm, r.m.rms_mm, r.m.max_rise_mm,
                  r.m.rms_rise_mm, r.m.max_fall_mm, r.m.rms_fall_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm,
                  r.m.sse_mm, r.m.settle_s, r.m.settle_max_s, r.v_min, r.v_max, i + 1 < rows.size() ? "," : "");
   }

@@ -2,7 +2,9 @@
 // and T_AF shifted, h or g scaled, or plant B as the wire), (b) a wire with latent heat and
 // models of it from none to exact, (c) the end-to-end flow's wire (tools/vrig/e2e_flow.py WIRE:
 // a hidden non-linear convection) with the model `sma fit` leaves without that effect. Rig-like, float (the firmware's scalar), default settings
-// of every controller (console::default_gains, PreviewConfig()), true position, whole run. The
+// of every controller (console::default_gains, PreviewConfig()), true position, whole run; inverse
+// + PID with the known future ("lead") at the board's leads (Board::lead_config: 3 s on the sine,
+// 10 s on the multi-step) and the firmware's inverse + PID gains. The
 // preview also in Q16.16 (the Uno's scalar) on the exact model and the wrong-h wires: its
 // heat-loss observer (heat_gain.hpp) against float's.
 // The steps' figures that matter here: SSE (zero steady-state error with a model that is not
@@ -97,15 +99,17 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  const sma::Mode modes[] = {sma::Mode::Pid, sma::Mode::FeedforwardPid, sma::Mode::Preview};
+  // FeedforwardPid twice: the paper's, then with the known future (lead).
+  const sma::Mode modes[] = {sma::Mode::Pid, sma::Mode::FeedforwardPid, sma::Mode::FeedforwardPid, sma::Mode::Preview};
   const std::vector<Case> cs = cases();
   // The Q16.16 preview on the cases its heat-loss observer is for (and the exact model).
   const size_t fixed_cases[] = {0, 3, 4};
   std::vector<Row> rows, fixed_rows;
   int done = 0;
-  const int total = static_cast<int>(cs.size() * 6 + 2 * (sizeof fixed_cases / sizeof fixed_cases[0]));
+  const int total = static_cast<int>(cs.size() * 2 * (sizeof modes / sizeof modes[0]) +
+                                     2 * (sizeof fixed_cases / sizeof fixed_cases[0]));
   sma_host::CaseLine progress;
-  auto one = [&](const Case& c, int sine, sma::Mode mode, bool fixed) {
+  auto one = [&](const Case& c, int sine, sma::Mode mode, bool fixed, bool lead) {
     progress("[%2d/%2d] %s%s", ++done, total, c.name.c_str(), fixed ? " (Q16.16)" : "");
     RunSetup s;
     s.mode = mode;
@@ -116,8 +120,10 @@ int main(int argc, char** argv) {
     s.plant_effects = c.plant_fx;
     s.model_effects = c.model_fx;
     if (mode != sma::Mode::Preview) s.config.gains = sma::console::default_gains(mode);
+    if (lead) s.lead.lead_s = sine ? 3.0 : 10.0;
     const std::vector<sma_host::Sample> r = fixed ? run<sma::Fixed>(c, s) : run(c, s);
-    Row row{c.name, sine ? "sine" : "multi-step", sma::mode_name(mode), Metrics(), 0.0, fixed ? "fixed" : "float"};
+    Row row{c.name, sine ? "sine" : "multi-step", lead ? "lead" : sma::mode_name(mode), Metrics(), 0.0,
+            fixed ? "fixed" : "float"};
     if (sine) {
       row.m = sma_host::sine_metrics(r, s.reference.sine_period_s);
     } else {
@@ -128,9 +134,9 @@ int main(int argc, char** argv) {
   };
   for (const Case& c : cs)
     for (int sine = 0; sine <= 1; ++sine)
-      for (sma::Mode mode : modes) rows.push_back(one(c, sine, mode, false));
+      for (size_t i = 0; i < sizeof modes / sizeof modes[0]; ++i) rows.push_back(one(c, sine, modes[i], false, i == 2));
   for (size_t i : fixed_cases)
-    for (int sine = 0; sine <= 1; ++sine) fixed_rows.push_back(one(cs[i], sine, sma::Mode::Preview, true));
+    for (int sine = 0; sine <= 1; ++sine) fixed_rows.push_back(one(cs[i], sine, sma::Mode::Preview, true, false));
   progress.finish();
   std::printf("Rig-like, float, default settings; true position, whole run (sine after its first "
               "period). Overshoot: past each new setpoint within 10 s of its step. Wrong-way: after / before\n"
