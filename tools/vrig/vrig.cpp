@@ -70,6 +70,7 @@ struct Options {
   std::string mcu = "atmega328p";  // --mcu: the Uno's, or atmega2560 (the Mega image)
   std::string script, log, cycles_json;
   std::string pass_trace;  // --pass-trace FILE
+  std::string tick_trace;  // --tick-trace FILE
   double duration = 10.0;
   double speed = 1.0;  // --realtime pacing: simulated seconds per wall-clock second
   bool pty = false, native = false, quiet = false, stamp = false, realtime = false;
@@ -99,6 +100,7 @@ void usage() {
           "  (neither --script nor --pty: stdin lines are sent as they come)\n"
           "  --log FILE          write the telemetry (header + rows) received to a CSV rig log\n"
           "  --cycles-json FILE  cycles of the control section (GPIOR0 markers), tick rate and jitter\n"
+          "  --tick-trace FILE   one line per tick: tick, simulated s, control section cycles\n"
           "  --pass-trace FILE   (preview image) one line per plan pass: tick, pass, start and length\n"
           "                      in cycles from the tick's start, 1 if it finished the tick's planning\n"
           "  --noise-mm X        RMS displacement noise of the simulated sensor (mm)\n"
@@ -372,6 +374,7 @@ struct Rig {
   sma::Plant* plant = nullptr;
   FILE* truth = nullptr;  // --truth
   FILE* pass_trace = nullptr;  // --pass-trace: one line per plan pass
+  FILE* tick_trace = nullptr;  // --tick-trace: one line per tick (which tick is the worst, and why)
   long plant_ms = 0;
   // The wire's true displacement (no sensor effect, no noise) every 10 ms of plant time.
   void write_truth(double t) {
@@ -481,6 +484,7 @@ struct Rig {
     } else if (v == 2) {
       const uint64_t d = c - st.t_start;
       st.ctl_max = sma::max(st.ctl_max, d);
+      if (tick_trace) fprintf(tick_trace, "%llu %.2f %llu\n", (unsigned long long)st.ticks, now(), (unsigned long long)d);
       st.ctl_sum += d;
       ++st.ctl_n;
       if (opt.fault_at >= 0 && now() >= opt.fault_at) {
@@ -771,6 +775,7 @@ int main(int argc, char** argv) {
     else if (a == "--log") o.log = val();
     else if (a == "--cycles-json") o.cycles_json = val();
     else if (a == "--pass-trace") o.pass_trace = val();
+    else if (a == "--tick-trace") o.tick_trace = val();
     else if (a == "--pty") o.pty = o.realtime = true;
     else if (a == "--realtime") o.realtime = true;
     else if (a == "--speed") o.speed = atof(val());
@@ -855,6 +860,7 @@ int main(int argc, char** argv) {
   if (!o.truth.empty() && !(rig.truth = open_out(o.truth, "t_s,true_mm"))) return 2;
   if (!o.pass_trace.empty() && !(rig.pass_trace = open_out(o.pass_trace, "# tick pass start_cycles length_cycles done")))
     return 2;
+  if (!o.tick_trace.empty() && !(rig.tick_trace = open_out(o.tick_trace, "# tick t_s control_cycles"))) return 2;
   sma::RigOptions ro;
   ro.noise_mm = o.noise_mm;
   ro.v_supply = RIG_V_SUPPLY;
@@ -865,6 +871,7 @@ int main(int argc, char** argv) {
   if (rig.out.log) fclose(rig.out.log);
   if (rig.truth) fclose(rig.truth);
   if (rig.pass_trace) fclose(rig.pass_trace);
+  if (rig.tick_trace) fclose(rig.tick_trace);
   fflush(stdout);
   return rc;
 }

@@ -183,10 +183,11 @@ class InverseModel {
   }
 
   // Between ticks (after the output is written): the loop a reversal at the memory's present
-  // point would open, built now (Hysteresis::prepare_cooling_shape), so that the tick whose
-  // reference reverses does not build it inside the control section. Changes no number: the
-  // reversal uses the same loop it would have built; a heating that goes on discards it.
-  void prepare_reversal() { memory_.prepare_cooling_shape(); }
+  // point would open, built now with its rates (Hysteresis::prepare_cooling), so that the tick
+  // whose reference reverses, or whose peak rule switches, neither builds it nor divides inside
+  // the control section. Changes no number: the reversal uses the same loop it would have built;
+  // a heating that goes on discards it.
+  void prepare_reversal() { memory_.prepare_cooling(); }
 
   T desired_temperature() const { return memory_.temperature(); }
   T filtered_temperature() const { return T_f_; }
