@@ -147,8 +147,12 @@ class InverseModel {
           e = mech_.fraction(u, T_new);
           T_new = curves_.cool_temperature(loop, e);
         }
-      // Eq 16 inverts eq 11 only strictly inside the cooling stage.
-      on_curve = !riding && T_new < T_d && e > T(0) && e < loop.top && curves_.has_cooling_stage(loop);
+      // Eq 16 inverts eq 11 only strictly inside the cooling stage. The ride's T_new inverts
+      // eqs 5-6 at e (eps_i < e < top: on_rise and the test above), so the memory takes e itself:
+      // a reference held on the ride then finds the memory at exactly its fraction and rides on,
+      // where the fraction walked back from T_new differed by a rounding whose sign decided,
+      // scalar by scalar, between riding on and the cooling stage.
+      on_curve = T_new < T_d && (riding || (e > T(0) && e < loop.top && curves_.has_cooling_stage(loop)));
       T_new = min(T_new, T_d);
     }
     if (on_curve) memory_.update(T_new, e);
