@@ -438,8 +438,11 @@ def run(args, err=sys.stderr):
               % ("127.0.0.1" if local else host, port))
     err.flush()
     if args.url_file:
-        with open(args.url_file, "w") as f:
+        # Whole or not at all: a program that waits for the file never reads it half written.
+        tmp = args.url_file + ".tmp"
+        with open(tmp, "w") as f:
             f.write("http://127.0.0.1:%d/\n%s\n" % (port, args.port))
+        os.replace(tmp, args.url_file)
     try:
         server.serve_forever(poll_interval=0.2)
     except KeyboardInterrupt:
