@@ -144,15 +144,16 @@ const Ctl kControllers[] = {{"PID", sma::Mode::Pid, false, false},
 const size_t kNumCtl = sizeof kControllers / sizeof kControllers[0];
 const char* kPlants[] = {"library", "B (literal)"};
 
-// The lead the board gives a reference (Board::lead_config by the run's kind): 10 s on `step`, 3 s
-// on `sine` and `traj`, none on a constant. The board's `step` and `sine` are the paper's only
-// (board_commands refuses others), so every reference here is uploaded as `traj` and gets 3 s: the
-// stairs down too, though it is steps like the paper's multi-step.
+// The lead the board gives a reference (sma::lead_for the kind it runs as). The board's `step` and
+// `sine` are the paper's only (board_commands refuses others), so every reference here but a
+// constant is uploaded as `traj`: the stairs down too, though it is steps like the paper's
+// multi-step.
 double board_lead_s(const sma::Reference& r) {
   const sma::Reference paper = sma::Reference::multi_step();
   bool paper_steps = r.kind == sma::RefKind::MultiStep && r.n_steps == paper.n_steps && r.step_s == paper.step_s;
   for (uint8_t k = 0; paper_steps && k < r.n_steps; ++k) paper_steps = r.step_mm[k] == paper.step_mm[k];
-  return paper_steps ? 10.0 : r.kind == sma::RefKind::Constant ? 0.0 : 3.0;
+  const sma::RefKind as = paper_steps || r.kind == sma::RefKind::Constant ? r.kind : sma::RefKind::Trajectory;
+  return sma::lead_for(as).lead_s;
 }
 
 RunSetup setup(const Excitation& x, const Ctl& c) {

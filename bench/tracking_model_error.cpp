@@ -3,7 +3,7 @@
 // models of it from none to exact, (c) the end-to-end flow's wire (tools/vrig/e2e_flow.py WIRE:
 // a hidden non-linear convection) with the model `sma fit` leaves without that effect. Rig-like, float (the firmware's scalar), default settings
 // of every controller (console::default_gains, PreviewConfig()), true position, whole run; inverse
-// + PID with the known future ("lead") at the board's leads (Board::lead_config: 3 s on the sine,
+// + PID with the known future ("lead") at the board's leads (sma::lead_for: 3 s on the sine,
 // 10 s on the multi-step) and the firmware's inverse + PID gains. The
 // preview also in Q16.16 (the Uno's scalar) on the exact model and the wrong-h wires: its
 // heat-loss observer (heat_gain.hpp) against float's.
@@ -120,7 +120,7 @@ int main(int argc, char** argv) {
     s.plant_effects = c.plant_fx;
     s.model_effects = c.model_fx;
     if (mode != sma::Mode::Preview) s.config.gains = sma::console::default_gains(mode);
-    if (lead) s.lead.lead_s = sine ? 3.0 : 10.0;
+    if (lead) s.lead.lead_s = sma::lead_for(s.reference.kind).lead_s;
     const std::vector<sma_host::Sample> r = fixed ? run<sma::Fixed>(c, s) : run(c, s);
     Row row{c.name, sine ? "sine" : "multi-step", lead ? "lead" : sma::mode_name(mode), Metrics(), 0.0,
             fixed ? "fixed" : "float"};

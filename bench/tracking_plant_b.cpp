@@ -3,7 +3,7 @@
 // the thermal discretisation (RK4 sub-steps vs exact step) and, with the literal reading, in
 // the re-heat rule of the hysteresis. Rig-like and ideal conditions of model.md, the paper's
 // sine and multi-step; PID alone, inverse + PID, inverse + PID with the known future ("lead":
-// the board's leads, Board::lead_config, 3 s sine / 10 s steps) and preview, each with the
+// the board's leads, sma::lead_for, 3 s sine / 10 s steps) and preview, each with the
 // firmware's default settings (console::default_gains, PreviewConfig()), double and float. For comparison the same
 // controllers on the library's own plant. Prints a Markdown table and writes JSON.
 //
@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
           s.condition = c ? Condition::rig_like() : Condition::ideal();
           s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
           if (mode != sma::Mode::Preview) s.config.gains = sma::console::default_gains(mode);
-          if (lead) s.lead.lead_s = sine ? 3.0 : 10.0;
+          if (lead) s.lead.lead_s = sma::lead_for(s.reference.kind).lead_s;
           const char* name = lead ? "lead" : sma::mode_name(mode);
           progress("%-5s %-8s %-12s %s", sine ? "sine" : "steps", s.condition.name, plant_names[plant], name);
           for (int k = 0; k < 2; ++k) {

@@ -674,12 +674,8 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     if (kLead) prepare_future(0u);
   }
 
-  // Inverse + PID with the known future (LeadConfig, issue 13) on the references that have one:
-  // the lead tuned per test by tune_lead (bench_tracking, docs/control.md section 31): 3 s on
-  // the sine (and a trajectory's ramps), 10 s on steps; the peak window LeadConfig's.
-  static constexpr LeadConfig lead_config(RefKind k) {
-    return LeadConfig{k == RefKind::MultiStep ? 10.0 : k == RefKind::Constant ? 0.0 : 3.0, LeadConfig().peak_window_s};
-  }
+  // Inverse + PID with the known future (LeadConfig, issue 13) on the references that have one,
+  // each with its lead (lead_for).
   bool lead_on() const {
     return kLead && ctl().mode() == Mode::FeedforwardPid && !v_.x.training_ && state_.s.run_kind != RefKind::Constant;
   }
@@ -688,8 +684,8 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     if (!lead_on()) return;
     const double dt = 1.0 / Rig::tick_hz();
     const RefKind kind = state_.s.run_kind;
-    *v_.x.future() = gen().lookahead(k, kind == RefKind::MultiStep ? lead_config(RefKind::MultiStep).lead_ticks(dt)
-                                                                  : lead_config(RefKind::Sine).lead_ticks(dt),
+    *v_.x.future() = gen().lookahead(k, kind == RefKind::MultiStep ? lead_for(RefKind::MultiStep).lead_ticks(dt)
+                                                                  : lead_for(RefKind::Sine).lead_ticks(dt),
                                    LeadConfig().sample_ticks(dt), dt);
   }
 
