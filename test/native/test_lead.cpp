@@ -67,7 +67,7 @@ TEST(Lead, RidingTheRiseCoolsWhileTheReferenceRises) {
     double d = 0.0;
     for (uint32_t k = 0; k < 15000; ++k) {
       const double r = gen.at_tick(k, s.config.dt);
-      ctl.step(r, d, f ? gen.lookahead(k, lead, window, s.config.dt) : sma::Lookahead<double>{r, r}, f == 1);
+      ctl.step(r, d, f ? gen.lookahead(k, lead, window, s.config.dt) : sma::Lookahead<double>{r, r, r}, f == 1);
       const sma::InverseModel<double>& inv = ctl.inverse();
       d = inv.mechanics().displacement(inv.memory().eps());
       if (inv.riding()) {

@@ -177,7 +177,7 @@ std::vector<Sample> run_closed_loop_on(PlantT& plant, const RunSetup& s) {
   return run_loop_on<T>(plant, s, ref, [&](double t, T r, double meas) {
     // The known future as the board reads it (ReferenceGen::lookahead at the tick).
     const uint32_t k = static_cast<uint32_t>(t / s.config.dt + 0.5);
-    const sma::Lookahead<T> future = lead ? ref.lookahead(k, lead_ticks, sample_ticks, s.config.dt) : sma::Lookahead<T>{r, r};
+    const sma::Lookahead<T> future = lead ? ref.lookahead(k, lead_ticks, sample_ticks, s.config.dt) : sma::Lookahead<T>{r, r, r};
     const double v = sma::to_double(ctl.step(r, feedback(meas), future, lead));
     return Command{v, sma::to_double(ctl.v1())};
   });

@@ -137,11 +137,16 @@ constexpr bool rig_lead(long) { return false; }
 template <class T, bool kLead>
 struct FutureSlot {
   Lookahead<T>* future() { return &future_; }
+  bool future_of(uint32_t k) const { return future_tick_ == k; }
+  void set_future_tick(uint32_t k) { future_tick_ = k; }
   Lookahead<T> future_;
+  uint32_t future_tick_;  // the run tick future_ is of
 };
 template <class T>
 struct FutureSlot<T, false> {
   Lookahead<T>* future() { return nullptr; }
+  bool future_of(uint32_t) const { return true; }
+  void set_future_tick(uint32_t) {}
 };
 // Rig::preview_steps_per_tick(), or the default config's.
 template <class R>
@@ -274,7 +279,9 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
         ctl().set_voltage(from_double<T>(training_voltage(t_of(k))));
       }
     } else {
-      ref = kPreview ? ref_at(t_of(k)) : gen().at_tick(k, 1.0 / Rig::tick_hz());
+      // (With the lead: the reference prepared between ticks, prepare_future.)
+      if (kLead && !kPreview && !v_.x.future_of(k)) prepare_future(k);
+      ref = kPreview ? ref_at(t_of(k)) : kLead ? v_.x.future()->now : gen().at_tick(k, 1.0 / Rig::tick_hz());
     }
     // (The preview runs instead of the Controller: its wire estimate is the one watched.)
     const T v_cmd = preview_on() ? preview().step(ref, Future{this, t_of(k)}, d) : (kLead ? ctl().step(ref, d, *v_.x.future(), lead_on()) : ctl().step(ref, d));
@@ -679,14 +686,16 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   bool lead_on() const {
     return kLead && ctl().mode() == Mode::FeedforwardPid && !v_.x.training_ && state_.s.run_kind != RefKind::Constant;
   }
-  // The known future of run tick k (ReferenceGen::lookahead), between ticks.
+  // The reference of run tick k and, where the lead is on, its known future
+  // (ReferenceGen::lookahead), between ticks.
   SMA_NOINLINE void prepare_future(uint32_t k) {
-    if (!lead_on()) return;
+    if (v_.x.training_) return;  // (gen_ holds the training plan)
     const double dt = 1.0 / Rig::tick_hz();
     const RefKind kind = state_.s.run_kind;
+    v_.x.set_future_tick(k);
     *v_.x.future() = gen().lookahead(k, kind == RefKind::MultiStep ? lead_for(RefKind::MultiStep).lead_ticks(dt)
                                                                   : lead_for(RefKind::Sine).lead_ticks(dt),
-                                   LeadConfig().sample_ticks(dt), dt);
+                                   LeadConfig().sample_ticks(dt), dt, lead_on());
   }
 
   // The model commands (storage.hpp via console::model_command) on `p`, a scratch Params.

@@ -202,10 +202,10 @@ class Controller {
         v2_ = pid_.step(ref - measured, measured, T(0), v_max_);
         break;
       case Mode::Feedforward:
-        v1_ = feedforward<kLead>(ref, future, lead);  // 0..V_max: the inverse has the same V_max
-        break;
       case Mode::FeedforwardPid: {
-        v1_ = feedforward<kLead>(ref, future, lead);
+        // (One call for the two modes: it inlines once, flash on the Uno.)
+        v1_ = feedforward<kLead>(ref, future, lead);  // 0..V_max: the inverse has the same V_max
+        if (mode_ == Mode::Feedforward) break;
         // PID limits: V1 + V2 inside 0..V_max (eq 18; the anti-windup sees the clamp), and
         // never against the branch the reference is on. While it heats, the PID may slow the
         // heating but not cool the wire: cooling opens a minor loop whose rise (eqs 5-6) moves
@@ -233,7 +233,7 @@ class Controller {
   template <bool kLead>
   T feedforward(T ref, const Lookahead<T>* future, bool lead) {
     if (!kLead) return inverse_.step(ref);
-    const T ahead = lead && is_finite(future->ahead) ? clamp(future->ahead, T(0), inverse_.mechanics().g) : ref;
+    const T ahead = lead ? min(ref, future->ahead) : ref;  // (NaN: ref)
     return inverse_.step(ahead, future->peak, lead);
   }
 

@@ -149,8 +149,11 @@ class PhaseCurves {
   T rise_temperature(const CoolingLoop<T>& L, T eps) const {
     if (!(L.rise_rate > T(0)) || !(eps > L.eps_i)) return L.T_i;
     if (!(eps < L.top)) return L.T_ii;
-    return L.T_i - (eps - L.eps_i) / L.rise_rate;
+    return rise_temperature_inside(L, eps);
   }
+  // The same for a fraction known to lie on the rise (eps_i <= eps < top of a finished loop
+  // with a rise: its rate is above 0), without the tests.
+  T rise_temperature_inside(const CoolingLoop<T>& L, T eps) const { return L.T_i - (eps - L.eps_i) / L.rise_rate; }
 
   T T_AS() const { return T_AS_; }
   // The major heating curve (eqs 2-4, 15) moved by dT along the temperature: a wire that is at

@@ -80,6 +80,7 @@ class InverseModel {
     u_prev_ = mech_.displacement(memory_.eps(), T0);
     u_extreme_ = u_prev_;
     heating_ = true;
+    riding_ = false;
   }
 
   // One tick: reference u (mm) -> feedforward V1 in 0..V_max.
@@ -137,11 +138,13 @@ class InverseModel {
       // Heating can only raise eps: below the current fraction, hold the temperature.
       on_curve = T_new > T_d;
       T_new = max(T_new, T_d);
+      riding_ = false;
     } else {
       // Eq 16 needs only the loop's shape: its rates wait (prepare_cooling_shape).
       const CoolingLoop<T>& loop = memory_.prepare_cooling_shape();
       const bool riding = peak_rule && !(e < memory_.eps()) && on_rise(e);  // (on_rise finishes the loop)
-      T_new = riding ? curves_.rise_temperature(loop, e) : curves_.cool_temperature(loop, e);  // eq 16, this loop's T_MSi
+      // (On the ride e lies on the rise: eps_i <= eps <= e < top, the memory above T_ii.)
+      T_new = riding ? curves_.rise_temperature_inside(loop, e) : curves_.cool_temperature(loop, e);  // eq 16, this loop's T_MSi
       if (expands && !riding)
         for (int i = 0; i < kExpansionSteps; ++i) {
           e = mech_.fraction(u, T_new);
@@ -154,6 +157,7 @@ class InverseModel {
       // scalar by scalar, between riding on and the cooling stage.
       on_curve = T_new < T_d && (riding || (e > T(0) && e < loop.top && curves_.has_cooling_stage(loop)));
       T_new = min(T_new, T_d);
+      riding_ = riding;  // (T_new then lies in T_ii..T_i: the memory is on the rise, riding())
     }
     if (on_curve) memory_.update(T_new, e);
     else memory_.update(T_new);
@@ -198,9 +202,9 @@ class InverseModel {
   // (After step(): the model wire at the end of its tick, advanced or not.)
   T model_temperature() const { return model_pending_ ? wire_step_(T_m_, v1_, eps_f_, deps_dt_) : T_m_; }
   bool heating() const { return heating_; }
-  // On a cooling branch above the end of its loop's rise (eqs 5-6; the peak rule's ride):
-  // cooling moves the wire up.
-  bool riding() const { return !heating_ && memory_.temperature() > memory_.loop().T_ii; }
+  // The last step rode a loop's rise (the peak rule's, eqs 5-6): on a cooling branch above the
+  // rise's end, where cooling moves the wire up.
+  bool riding() const { return riding_; }
   const Hysteresis<T>& memory() const { return memory_; }
   const Thermal<T>& thermal() const { return thermal_; }
   const Mechanics<T>& mechanics() const { return mech_; }
@@ -240,6 +244,7 @@ class InverseModel {
   T v1_, deps_dt_;      // the last step's V1 and d(eps_f)/dt: the model wire's pending tick
   bool heating_;
   bool model_pending_;  // T_m_ has not had the last step's tick yet (advance_model)
+  bool riding_;         // the last step's cooling rode the rise (riding())
 };
 
 }  // namespace sma

@@ -78,10 +78,11 @@ struct Reference : RefShape {
 
 // The known future the inverse model reads (LeadConfig, ReferenceGen::lookahead):
 // `ahead`, the reference lead_s ahead where it is below the present one (else the present), and
-// `peak`, the highest reference of the next peak_window_s.
+// `peak`, the highest reference of the next peak_window_s; `now`, the present reference (a board
+// computes the next tick's between ticks: the control section does not evaluate it).
 template <class T>
 struct Lookahead {
-  T ahead, peak;
+  T ahead, peak, now;
 };
 constexpr uint8_t kLookaheadSamples = 8;  // the window's samples (ReferenceGen::lookahead)
 
@@ -113,10 +114,28 @@ class ReferenceGen {
   // peak over kLookaheadSamples points sample_ticks apart (the window; the paper's sine peak
   // lies within 0.2 % of its span of the highest sample of a 10 s window; a step is seen at most
   // a sample late).
-  Lookahead<T> lookahead(uint32_t k, uint32_t lead_ticks, uint32_t sample_ticks, double dt) const {
-    const T now = at_tick(k, dt);
-    Lookahead<T> f{min(now, at_tick(k + lead_ticks, dt)), now};
-    for (uint8_t i = 0; i < kLookaheadSamples; ++i) f.peak = max(f.peak, at_tick(k += sample_ticks, dt));
+  // `future` false: `now` only (ahead and peak the present).
+  // (One evaluation in the loop: at_tick inlines once, flash on the Uno.)
+  Lookahead<T> lookahead(uint32_t k, uint32_t lead_ticks, uint32_t sample_ticks, double dt, bool future = true) const {
+    Lookahead<T> f;
+    uint32_t at = k;
+    for (uint8_t i = 0;; ++i) {
+      const T r = at_tick(at, dt);
+      if (i == 0) {  // now
+        f.now = f.ahead = f.peak = r;
+        if (!future) break;
+        at += lead_ticks;
+        continue;
+      }
+      if (i == 1) {  // lead_ticks ahead
+        f.ahead = min(f.ahead, r);
+        at = k;
+      } else {  // the window's samples
+        f.peak = max(f.peak, r);
+        if (i == kLookaheadSamples + 1) break;
+      }
+      at += sample_ticks;
+    }
     return f;
   }
 
