@@ -26,11 +26,14 @@
 #ifndef SMA_CONSOLE_PREVIEW
 #define SMA_CONSOLE_PREVIEW RIG_FEATURE_PREVIEW
 #endif
-// Inverse + PID with the known future (sma::LeadConfig: `mode ffpid` on step, sine and traj):
-// ~1.1 KB of flash the Uno images do not have yet (docs/control.md section 31); measured by
-// the image sma_firmware_lead_uno.
+// Inverse + PID with the known future (sma::LeadConfig: `mode ffpid` on step, sine and traj,
+// `lead F`): in every image but the Uno's Q16.16 one (~0.7 KB over the flash budget with it,
+// docs/control.md section 31: built with RIG_FEATURE_LEAD 0).
 #ifndef RIG_FEATURE_LEAD
-#define RIG_FEATURE_LEAD 0
+#define RIG_FEATURE_LEAD 1
+#endif
+#ifndef SMA_CONSOLE_LEAD
+#define SMA_CONSOLE_LEAD RIG_FEATURE_LEAD
 #endif
 
 struct RigBoard {

@@ -262,15 +262,14 @@ namespace {
 // Inverse + PID with the known future on the board (Rig::lead(): `mode ffpid` on a reference,
 // the lookahead between ticks, lead 3 s on the sine and 10 s on steps): the same issue-13
 // comparison as the Uno FIL test fil_lead, on the board's own loop (rig-like wire, its ADC and PWM),
-// against PID alone on the same board and inverse + PID on the board without the feature.
+// against PID alone and the paper's inverse + PID (`lead 0`) on the same board.
 TEST(BoardLead, BeatsPidAloneAndInversePidOnTheBoard) {
   for (int sine = 1; sine >= 0; --sine) {
     const char* command = sine ? "sine" : "step";
     const double seconds = sine ? 100.0 : sma::Reference::multi_step().duration();
-    Bench<false, RigLead> lead, pid;
-    Bench<false> paper;
+    Bench<false, RigLead> lead, pid, paper;
     pid.cmd("mode pid");
-    paper.cmd("mode ffpid");
+    EXPECT_EQ(paper.cmd("lead 0"), "OK lead 0.00");
     auto metrics = [&](const std::vector<sma_host::Sample>& r) {
       return sine ? sma_host::sine_metrics(r, 50.0) : sma_host::step_metrics(r, 25.0);
     };
@@ -290,6 +289,28 @@ TEST(BoardLead, BeatsPidAloneAndInversePidOnTheBoard) {
       EXPECT_LE(ml.rms_mm, 0.05);
       EXPECT_LE(ml.wrong_way_mm, 0.03);  // after each step (before a down-step: docs/control.md section 31)
     }
+  }
+}
+
+// `lead 0` is the paper's inverse + PID: the board with the feature then commands, tick by tick,
+// the PWM counts of the board built without it (the same reference, model and PID), on a sine and
+// on the multi-step; `lead 1` (the default) does not.
+TEST(BoardLead, LeadZeroIsThePapersInversePlusPid) {
+  for (const char* command : {"sine", "step"}) {
+    Bench<false, RigLead> zero, on;
+    Bench<false> paper;
+    EXPECT_EQ(zero.cmd("lead 0"), "OK lead 0.00");
+    const double seconds = command[1] == 'i' ? 60.0 : 125.0;  // (the steps' first down-step: 100 s)
+    const std::vector<sma_host::Sample> a = zero.run(command, seconds, 0), b = paper.run(command, seconds, 0),
+                                        c = on.run(command, seconds, 0);
+    ASSERT_EQ(a.size(), b.size());
+    size_t same = 0, differ = 0;
+    for (size_t k = 0; k < a.size(); ++k) {
+      same += a[k].v == b[k].v && a[k].ref == b[k].ref;
+      differ += c[k].v != b[k].v;
+    }
+    EXPECT_EQ(same, a.size()) << command;
+    EXPECT_GT(differ, a.size() / 10) << command;  // the lead acts
   }
 }
 }  // namespace

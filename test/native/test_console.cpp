@@ -25,7 +25,7 @@ bool same_gains(const sma::PidGains& a, const sma::PidGains& b) {
 
 // Field-by-field equality of two console states (no memcmp: padding).
 bool same_state(const State& a, const State& b) {
-  if (a.mode != b.mode || a.heat != b.heat || a.volt != b.volt || a.tlim_C != b.tlim_C ||
+  if (a.mode != b.mode || a.heat != b.heat || a.volt != b.volt || a.tlim_C != b.tlim_C || a.lead != b.lead ||
       a.tele != b.tele || a.run_kind != b.run_kind || a.pos_mm != b.pos_mm || a.run != b.run)
     return false;
   if (!same_gains(a.gains_pid, b.gains_pid) || !same_gains(a.gains_ffpid, b.gains_ffpid)) return false;
@@ -152,6 +152,22 @@ TEST(ConsoleCommands, Mode) {
   EXPECT_EQ(c.run("pos 0.2"), "OK pos 0.2000 ffpid");
 }
 
+// `lead F`: inverse + PID's heating/cooling trade-off (the factor on the tuned cooling lead,
+// 0 the paper's controller); a setting, it heats nothing and keeps the mode.
+TEST(ConsoleCommands, Lead) {
+  Console c;
+  EXPECT_DOUBLE_EQ(c.s.lead, 1.0);  // the tuned lead by default
+  EXPECT_EQ(c.run("lead 0"), "OK lead 0.00");
+  EXPECT_DOUBLE_EQ(c.s.lead, 0.0);
+  EXPECT_FALSE(c.s.heat);
+  EXPECT_EQ(c.run("lead 1.5"), "OK lead 1.50");
+  EXPECT_DOUBLE_EQ(c.s.lead, 1.5);
+  EXPECT_EQ(c.s.mode, Mode::FeedforwardPid);
+  EXPECT_NE(c.run("help").find("|lead F|"), std::string::npos);
+  // (A build without the feature has no such row: SMA_CONSOLE_LEAD 0, the Q16.16 and Mega
+  // images, FIL test bad_lines on the Q16.16 ELF.)
+}
+
 TEST(ConsoleCommands, Volt) {
   Console c;
   EXPECT_EQ(c.run("volt 1.25"), "OK volt 1.2500 open");
@@ -192,8 +208,9 @@ TEST(ConsoleCommands, TlimTeleStatusStopHelpEmpty) {
   EXPECT_EQ(c.s.active_mode(), Mode::Off);
   const std::string h = c.run("help");
   EXPECT_TRUE(starts_with(h, "OK pos mm|step|sine|traj"));
-  EXPECT_NE(h.find("status|stop"), std::string::npos);  // not truncated
-  EXPECT_LT(h.size(), static_cast<size_t>(con::kReplyMax - 1));
+  EXPECT_NE(h.find("status|stop"), std::string::npos);
+  EXPECT_EQ(h.substr(h.size() - 6), "|pinfo");  // not truncated: the table's last row
+  EXPECT_LE(h.size(), static_cast<size_t>(con::kReplyMax - 1));
   EXPECT_EQ(c.run(""), "");
   EXPECT_TRUE(c.ok);
   EXPECT_EQ(c.run("   \t "), "");
@@ -249,6 +266,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadLine{"gains", "ERR gains: missing number <kp>"},
         BadLine{"tlim", "ERR tlim: missing number <degC>"},
         BadLine{"traj 1", "ERR traj: missing number <mm>"},
+        BadLine{"lead", "ERR lead: missing number <F>"},
         // malformed numbers
         BadLine{"pos abc", "ERR pos: mm is not a number: 'abc'"},
         BadLine{"pos 0.4x", "ERR pos: mm is not a number: '0.4x'"},
@@ -263,6 +281,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadLine{"pos inf", "ERR pos: mm is not a number: 'inf'"},
         BadLine{"volt -inf", "ERR volt: V is not a number: '-inf'"},
         BadLine{"gains 1 x 3", "ERR gains: ki is not a number: 'x'"},
+        BadLine{"lead nan", "ERR lead: F is not a number: 'nan'"},
         BadLine{"pos 0,5", "ERR pos: mm is not a number: '0,5'"},
         // out of range
         BadLine{"pos 0.959", "ERR pos: mm out of range 0.000..0.958"},
@@ -275,6 +294,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadLine{"tlim 151", "ERR tlim: degC out of range 30.000..150.000"},
         BadLine{"traj -1 0.2", "ERR traj: t_s out of range 0.000..3600.000"},
         BadLine{"traj 1 1", "ERR traj: mm out of range 0.000..0.958"},
+        BadLine{"lead 2.01", "ERR lead: F out of range 0.000..2.000"},
+        BadLine{"lead -0.5", "ERR lead: F out of range 0.000..2.000"},
+        BadLine{"lead 1 2", "ERR lead: unexpected extra text"},
         // extra text
         BadLine{"pos 0.4 0.5", "ERR pos: unexpected extra text"},
         BadLine{"step now", "ERR step: unexpected extra text"},
@@ -528,7 +550,7 @@ TEST(ConsoleFuzz, HundredThousandLinesNeverBreakTheState) {
   static const char* const kSeeds[] = {
       "pos 0.4", "step", "sine", "traj clear", "traj 1.5 0.3", "traj run", "mode open", "mode pid",
       "mode ff", "mode ffpid", "volt 1.2", "gains 12.8 4 0.09", "tlim 100", "tele on", "tele off",
-      "status", "stop", "help", "pos 0.958", "traj 3600 0.958", "volt 2", "gains 0 0 0"};
+      "status", "stop", "help", "pos 0.958", "traj 3600 0.958", "volt 2", "gains 0 0 0", "lead 0.5"};
   static const char kAlphabet[] = "0123456789.+- \tabcdefghijklmnopqrstuvwxyz\x01\x7f\xff";
   Rng rng;
   State s;

@@ -42,7 +42,9 @@ static const char* kUsage =
     "  --out FILE             output CSV (default: stdout)\n"
     "closed loop:\n"
     "  --ref multistep|sine|const:MM|traj:FILE.csv   (trajectory CSV: t_s,mm rows, <= 16)\n"
-    "  --mode ffpid|pid|ff|preview  controller (default ffpid), gains: console defaults\n"
+    "  --mode ffpid|pid|ff|preview  controller (default ffpid), gains: console defaults;\n"
+    "                         ffpid on a reference with the known future, as the board\n"
+    "                         (--send 'lead 0': the paper's inverse + PID)\n"
     "  --gains KP,KI,KD       override the PID gains\n"
     "  --loop board|controller  board (default): the firmware's logic (sma::Board) at the\n"
     "                         rig's constants (rig_config.h: 100 Hz, 10-bit ADC sampled every\n"
@@ -282,6 +284,9 @@ int run(int argc, char** argv) {
     } else {
       throw Error("--ref '" + o.ref + "': expected multistep, sine, const:MM or traj:FILE.csv");
     }
+    // Inverse + PID on a reference runs as the board runs it by default: with the known future
+    // (sma::lead_for; `--send 'lead 0'` on the board loop: the paper's controller).
+    if (s.mode == sma::Mode::FeedforwardPid && sma_host::HostRig::lead()) s.lead = sma::lead_for(s.reference.kind);
     s.condition = o.rig_like ? sma_host::Condition::rig_like() : sma_host::Condition::ideal();
     s.condition.rig = rig;
     s.duration_s = o.duration;

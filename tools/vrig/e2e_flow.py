@@ -13,7 +13,7 @@ with the temperature rise). Everything goes through the project's own tools, as 
                               --refit-base all
   4. on the board:            tools/sma upload PARAMS.json --port PTY   (main image, its EEPROM
                               kept in a file, read back and verified by upload)
-  5. the paper's sine and multi-step (inverse model + PID, the gains of GAINS), run by
+  5. the paper's sine and multi-step (the paper's inverse model + PID: `lead 0`, the gains of GAINS), run by
      the main image with that EEPROM, for four models on the board: none uploaded (the paper's
      parameters, the firmware's fallback), the fitted one, fitted + effects, and the true wire
      (the same controller on a plant that matches its model exactly).
@@ -101,7 +101,9 @@ def paper_test(a, model, ee, test, command, duration):
     log_path = os.path.join(a.out, name + ".csv")
     script = log_path + ".script"
     with open(script, "w") as f:
-        f.write("0.0 tele on\n0.02 mode ffpid\n0.03 gains %g %g %g\n0.05 %s\n" % (*GAINS[test], command))
+        # (`lead 0`: the paper's inverse + PID, the controller these models are compared on; the
+        # image's default for references adds the known future.)
+        f.write("0.0 tele on\n0.02 mode ffpid\n0.03 gains %g %g %g\n0.04 lead 0\n0.05 %s\n" % (*GAINS[test], command))
     ee_copy = os.path.join(a.out, name + ".eeprom")  # a run saves its EEPROM at the end: one each
     if os.path.exists(ee):
         shutil.copy(ee, ee_copy)

@@ -25,8 +25,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from paper_tests import read_log  # noqa: E402
 
 V_MAX = 2.0  # rig_config.h RIG_V_MAX (eq 18)
-# (label, extra commands before the upload): the image's default, then inverse + PID.
-MODES = (("default (preview)", []), ("inverse + PID", ["mode ffpid"]))
+# (label, extra commands before the upload): the image's default, then the paper's inverse + PID
+# (`lead 0`: without the known future that `mode ffpid` adds on a reference).
+MODES = (("default (preview)", []), ("inverse + PID", ["mode ffpid", "lead 0"]))
 
 
 def run(a, label, extra, lines, duration):

@@ -30,7 +30,8 @@ MODES = (("preview", "preview"), ("ffpid", "inverse + PID"))
 
 
 def run(a, test, command, duration, mode):
-    return scored_run(a, test, command, duration, mode, a.elf, mode, pre=["cool 1"], mcu=a.mcu)
+    # (`lead 0`: the paper's inverse + PID; the image's `mode ffpid` adds the known future.)
+    return scored_run(a, test, command, duration, mode, a.elf, mode, pre=["cool 1", "lead 0"], mcu=a.mcu)
 
 
 def main():

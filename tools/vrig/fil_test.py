@@ -213,6 +213,8 @@ def t_bad_lines(args):
         "gains 1 2 -3",          # negative
         "tlim 500",              # out of range
         "tlim 20",               # out of range
+        "lead 3",                # out of range (an image without the lead: unknown command)
+        "lead",                  # missing (likewise)
         "mode warp",             # bad mode
         "mode",                  # missing mode
         "tele maybe",            # bad on/off

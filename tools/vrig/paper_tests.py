@@ -3,15 +3,17 @@
 
 The firmware ELF runs unchanged in simavr (vrig) against the simulated plant with the rig's
 sensor noise (2 um) and ADC/PWM quantisation; for each test (multi-step, Fig. 9-11; sine,
-Fig. 12-13) and each controller (PID alone, inverse model + PID) it records the telemetry as a
-rig log, computes the error table with sma_metrics (the definitions of the benchmark and the
-tests), and draws figures like the paper's. Also runs vrig's cycle counter.
+Fig. 12-13) and each controller (PID alone, the paper's inverse model + PID: `mode ffpid` with
+`lead 0`, and the Uno's default for references: inverse + PID with the known future, `mode ffpid`)
+it records the telemetry as a rig log, computes the error table with sma_metrics (the
+definitions of the benchmark and the tests), and draws figures like the paper's. Also runs vrig's
+cycle counter.
 Gains: each controller runs each test with the gains the tuner found for it in rig-like
 conditions (bench_tracking's JSON, sent with the console's `gains` command), as in the native
 benchmark; without that file, the firmware's defaults (tuned on the sine).
 
   paper_tests.py [--build DIR] [--out DIR] [--noise-mm X] [--elf ELF] [--gains-from JSON]
-Writes OUT/{steps,sine}_{pid,ffpid}.csv, OUT/paper_tests.json, OUT/fig09..fig13.png.
+Writes OUT/{steps,sine}_{pid,ffpid,lead}.csv, OUT/paper_tests.json, OUT/fig09..fig13.png.
 """
 import argparse
 import concurrent.futures
@@ -25,7 +27,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 sys.path.insert(0, os.path.join(ROOT, "tools", "py"))
 from sma import progress, riglog  # noqa: E402
 TESTS = (("steps", "step", 150.0), ("sine", "sine", 150.0))
-MODES = (("pid", "PID alone"), ("ffpid", "inverse model + PID"))
+# (row, label, console mode, commands before the reference): the paper's pair, then the default.
+MODES = (("pid", "PID alone", "pid", ()), ("ffpid", "inverse model + PID (paper, lead 0)", "ffpid", ("lead 0",)),
+         ("lead", "inverse + PID, known future (default)", "ffpid", ()))
 
 
 def tuned_gains(path, test, mode):
@@ -107,14 +111,15 @@ def main():
 
     gains_file = a.gains_from or os.path.join(a.build, "bench-results", "tracking.json")
     results = {}
-    runs = [(test, command, duration, mode) for test, command, duration in TESTS for mode, _ in MODES]
+    runs = [(test, command, duration, row) for test, command, duration in TESTS for row, _, _, _ in MODES]
 
     def one(test, command, duration, mode):
         log = os.path.join(out, f"{test}_{mode}.csv")
         t0 = time.time()
         cyc = os.path.join(out, f"{test}_{mode}_cycles.json")
+        _, _, console_mode, pre = next(m for m in MODES if m[0] == mode)
         gains = tuned_gains(gains_file, test, mode)
-        run_vrig(vrig, elf, mode, command, duration, log, a.noise_mm, cyc, gains)
+        run_vrig(vrig, elf, console_mode, command, duration, log, a.noise_mm, cyc, gains, pre=pre)
         d = read_log(log)
         start = float(d["t_s"][d["ref_mm"] > 0][0])  # the reference starts with the command
         m = metrics(tool, log, test, start)
@@ -124,8 +129,8 @@ def main():
         m["gains"] = gains or "firmware defaults"
         return m
 
-    print(f"firmware in the virtual rig: {len(runs)} runs of 150 s simulated (steps and sine x PID alone and "
-          f"inverse model + PID), {a.jobs} at a time; gains: "
+    print(f"firmware in the virtual rig: {len(runs)} runs of 150 s simulated (steps and sine x PID alone, "
+          f"inverse model + PID and with the known future), {a.jobs} at a time; gains: "
           f"{gains_file if os.path.isfile(gains_file) else 'the firmware defaults (no ' + gains_file + ')'}",
           file=sys.stderr, flush=True)
     with progress.Progress("paper tests", total=len(runs)) as bar, \
@@ -144,7 +149,7 @@ def main():
           "wrong-way mm | settle max s | SSE mm | (paper) max heat mm | control cycles max/mean |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for test, _, _ in TESTS:
-        for mode, label in MODES:
+        for mode, label, _, _ in MODES:
             m = results[f"{test}_{mode}"]
             c = m["cycles"]
             g = m["gains"] if isinstance(m["gains"], str) else ", ".join("%.3g" % x for x in m["gains"])
@@ -160,6 +165,9 @@ def main():
         p, f = results[f"{test}_pid"]["max_mm"], results[f"{test}_ffpid"]["max_mm"]
         if p > 0:
             print(f"{test}: whole run, max |error|, inverse + PID vs PID alone: {100 * (1 - f / p):+.1f} %")
+        f = results[f"{test}_lead"]["max_mm"]
+        if p > 0:
+            print(f"{test}: whole run, max |error|, the default (known future) vs PID alone: {100 * (1 - f / p):+.1f} %")
     with open(os.path.join(out, "paper_tests.json"), "w") as f:
         json.dump(results, f, indent=2)
     plot(out, results)
@@ -170,7 +178,7 @@ def plot(out, results=None):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    colors = {"pid": "tab:red", "ffpid": "tab:blue"}
+    colors = {"pid": "tab:red", "ffpid": "tab:blue", "lead": "tab:green"}
     figs = (("fig09", "steps", "position", "Test 1: multi-step, position (paper Fig. 9)"),
             ("fig10", "steps", "error", "Test 1: tracking error (paper Fig. 10)"),
             ("fig11", "steps", "voltage", "Test 1: voltage across the wire (paper Fig. 11)"),
@@ -178,7 +186,7 @@ def plot(out, results=None):
             ("fig13", "sine", "error", "Test 2: tracking error (paper Fig. 13)"))
     for name, test, what, title in figs:
         fig, ax = plt.subplots(figsize=(10, 4.2))
-        for mode, label in MODES:
+        for mode, label, _, _ in MODES:
             d = read_log(os.path.join(out, f"{test}_{mode}.csv"))
             y = {"position": d["d_mm"], "error": d["ref_mm"] - d["d_mm"], "voltage": d["v_V"]}[what]
             if results and f"{test}_{mode}" in results:

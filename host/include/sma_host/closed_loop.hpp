@@ -230,9 +230,10 @@ inline std::string pset_line(uint8_t key, double value) {
 }
 
 // The console lines that give the board the run `s` describes: the model (pbegin, a pset per key,
-// pcommit: sma upload's sequence), the controller and its gains, then the reference (which
-// starts the run). What the console cannot set is refused here, naming the setting.
-inline std::vector<std::string> board_commands(const RunSetup& s) {
+// pcommit: sma upload's sequence), the controller and its gains (and, on a board with the lead,
+// `board_lead`, inverse + PID's lead on a reference: `lead F`), then the reference (which starts
+// the run). What the console cannot set is refused here, naming the setting.
+inline std::vector<std::string> board_commands(const RunSetup& s, bool board_lead = true) {
   using sma::Mode;
   if (s.model_params.reheat != sma::Reheat::return_point)
     throw Error("the board's model reads a re-heat by its return point only (reheat \"return_point\")");
@@ -251,6 +252,17 @@ inline std::vector<std::string> board_commands(const RunSetup& s) {
   }
   if (s.mode == Mode::Preview && s.preview.cool_weight != sma::PreviewConfig().cool_weight)
     c.push_back("cool " + console_number(s.preview.cool_weight, 20));
+  if (s.mode == Mode::FeedforwardPid && s.reference.kind != sma::RefKind::Constant) {
+    // The board's lead is `lead F` times the tuned one of the reference's kind (sma::lead_for),
+    // with the default peak window; s.lead off: `lead 0`, the paper's inverse + PID.
+    const sma::LeadConfig tuned = sma::lead_for(s.reference.kind);
+    const double f = s.lead.on() ? s.lead.lead_s / tuned.lead_s : 0.0;
+    if (s.lead.on() && (!board_lead || s.lead.peak_window_s != tuned.peak_window_s || !(f <= 2.0)))
+      throw Error("the board's known future is `lead F`: F (0..2) times its tuned lead of " +
+                  console_number(tuned.lead_s, 10) + " s with a " + console_number(tuned.peak_window_s, 10) +
+                  " s peak window" + (board_lead ? "" : ", on a board built with it (RIG_FEATURE_LEAD)"));
+    if (board_lead) c.push_back("lead " + console_number(f, 20));
+  }
   const sma::Reference& r = s.reference;
   const sma::Reference paper = r.kind == sma::RefKind::Sine ? sma::Reference::sine() : sma::Reference::multi_step();
   switch (r.kind) {
@@ -292,7 +304,7 @@ std::vector<Sample> run_board_loop_on(PlantT& plant, const RunSetup& s, const st
                 console_number(Rig::v_max(), 10) + " V (rig_config.h)");
   BoardLoop<Rig, PlantT> loop(plant);
   loop.boot();
-  std::vector<std::string> lines = board_commands(s);
+  std::vector<std::string> lines = board_commands(s, BoardLoop<Rig, PlantT>::Board::kLead);
   lines.insert(lines.end() - (s.reference.kind == sma::RefKind::Trajectory ? 2 + s.reference.n_points : 1), extra.begin(),
                extra.end());
   for (const std::string& l : lines) {

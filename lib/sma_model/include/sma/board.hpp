@@ -137,16 +137,16 @@ constexpr bool rig_lead(long) { return false; }
 template <class T, bool kLead>
 struct FutureSlot {
   Lookahead<T>* future() { return &future_; }
-  bool future_of(uint32_t k) const { return future_tick_ == k; }
-  void set_future_tick(uint32_t k) { future_tick_ = k; }
+  void set_lead(bool lead) { lead_ = lead; }
+  bool lead() const { return lead_; }
   Lookahead<T> future_;
-  uint32_t future_tick_;  // the run tick future_ is of
+  bool lead_;  // Board::lead_on() when it was prepared
 };
 template <class T>
 struct FutureSlot<T, false> {
   Lookahead<T>* future() { return nullptr; }
-  bool future_of(uint32_t) const { return true; }
-  void set_future_tick(uint32_t) {}
+  void set_lead(bool) {}
+  bool lead() const { return false; }
 };
 // Rig::preview_steps_per_tick(), or the default config's.
 template <class R>
@@ -167,6 +167,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   // Inverse + PID with the known future (Rig::lead(), LeadConfig): `mode ffpid` on a reference
   // uses it. ~1.1 KB of flash the Uno images do not have yet (docs/control.md section 31).
   static constexpr bool kLead = detail::rig_lead<Rig>(0);
+  static_assert(!kLead || SMA_CONSOLE_LEAD, "the lead needs its console row (SMA_CONSOLE_LEAD 1)");
   typedef Controller<T> Ctl;
   typedef ReferenceGen<T> Gen;
   typedef console::LineBuffer::Status LineStatus;
@@ -279,12 +280,12 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
         ctl().set_voltage(from_double<T>(training_voltage(t_of(k))));
       }
     } else {
-      // (With the lead: the reference prepared between ticks, prepare_future.)
-      if (kLead && !kPreview && !v_.x.future_of(k)) prepare_future(k);
+      // (With the lead: the reference prepared between ticks, prepare_future. A tick the slot
+      // was not prepared for, once after an overrun or an EEPROM write, reads the one before.)
       ref = kPreview ? ref_at(t_of(k)) : kLead ? v_.x.future()->now : gen().at_tick(k, 1.0 / Rig::tick_hz());
     }
     // (The preview runs instead of the Controller: its wire estimate is the one watched.)
-    const T v_cmd = preview_on() ? preview().step(ref, Future{this, t_of(k)}, d) : (kLead ? ctl().step(ref, d, *v_.x.future(), lead_on()) : ctl().step(ref, d));
+    const T v_cmd = preview_on() ? preview().step(ref, Future{this, t_of(k)}, d) : (kLead ? ctl().step(ref, d, *v_.x.future(), v_.x.lead()) : ctl().step(ref, d));
 
     SafetyInputOf<T> in;
     in.sensor_v = volts;
@@ -683,19 +684,25 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
 
   // Inverse + PID with the known future (LeadConfig, issue 13) on the references that have one,
   // each with its lead (lead_for).
+  // (`lead 0`: the paper's inverse + PID.)
   bool lead_on() const {
-    return kLead && ctl().mode() == Mode::FeedforwardPid && !v_.x.training_ && state_.s.run_kind != RefKind::Constant;
+    return kLead && ctl().mode() == Mode::FeedforwardPid && !v_.x.training_ && state_.s.run_kind != RefKind::Constant &&
+           state_.s.lead > 0.0;
   }
   // The reference of run tick k and, where the lead is on, its known future
   // (ReferenceGen::lookahead), between ticks.
   SMA_NOINLINE void prepare_future(uint32_t k) {
     if (v_.x.training_) return;  // (gen_ holds the training plan)
+    const bool lead = lead_on();
+    v_.x.set_lead(lead);
+    if (kPreview && !lead) return;  // (a board with the preview reads its reference itself: ref_at)
     const double dt = 1.0 / Rig::tick_hz();
     const RefKind kind = state_.s.run_kind;
-    v_.x.set_future_tick(k);
-    *v_.x.future() = gen().lookahead(k, kind == RefKind::MultiStep ? lead_for(RefKind::MultiStep).lead_ticks(dt)
-                                                                  : lead_for(RefKind::Sine).lead_ticks(dt),
-                                   LeadConfig().sample_ticks(dt), dt, lead_on());
+    // The lead: `lead F` times the tuned one of the reference's kind (lead_for), truncated to
+    // ticks (exact for the tuned one).
+    const double tuned = kind == RefKind::MultiStep ? lead_for(RefKind::MultiStep).lead_ticks(dt)
+                                                    : lead_for(RefKind::Sine).lead_ticks(dt);
+    *v_.x.future() = gen().lookahead(k, trunc_u32(state_.s.lead * tuned), LeadConfig().sample_ticks(dt), dt, lead);
   }
 
   // The model commands (storage.hpp via console::model_command) on `p`, a scratch Params.

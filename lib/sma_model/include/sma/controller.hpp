@@ -219,7 +219,8 @@ class Controller {
         else hi = min(hi, max(v_hold - v1_, lo));
         // On the rise of the peak rule cooling moves the wire up, heating stalls it on a flat
         // stage: the error's sign says nothing of the voltage's, the feedforward rides alone.
-        if (lead && inverse_.riding()) lo = hi = T(0);
+        // (Only the peak rule rides: no ride without the lead.)
+        if (kLead && inverse_.riding()) lo = hi = T(0);
         v2_ = pid_.step(ref - measured, measured, lo, hi);
         break;
       }

@@ -77,7 +77,7 @@ struct Reference : RefShape {
 };
 
 // The known future the inverse model reads (LeadConfig, ReferenceGen::lookahead):
-// `ahead`, the reference lead_s ahead where it is below the present one (else the present), and
+// `ahead`, the reference lead_s ahead (the inverse reads it where it is below the present one), and
 // `peak`, the highest reference of the next peak_window_s; `now`, the present reference (a board
 // computes the next tick's between ticks: the control section does not evaluate it).
 template <class T>
@@ -110,7 +110,7 @@ class ReferenceGen {
     return at(static_cast<double>(k) * dt);
   }
 
-  // The known future at tick k: the reference lead_ticks ahead where lower than now, and the
+  // The known future at tick k: the reference lead_ticks ahead, and the
   // peak over kLookaheadSamples points sample_ticks apart (the window; the paper's sine peak
   // lies within 0.2 % of its span of the highest sample of a 10 s window; a step is seen at most
   // a sample late).
@@ -128,7 +128,7 @@ class ReferenceGen {
         continue;
       }
       if (i == 1) {  // lead_ticks ahead
-        f.ahead = min(f.ahead, r);
+        f.ahead = r;
         at = k;
       } else {  // the window's samples
         f.peak = max(f.peak, r);

@@ -121,6 +121,13 @@ inline bool apply(const Command& c, State& s, Fault fault, Reply& reply) {
       reply.put(' ');
       reply.put_fixed(c.a, 1);
       break;
+#if SMA_CONSOLE_LEAD
+    case Op::Lead:
+      s.lead = c.a;
+      reply.put(' ');
+      reply.put_fixed(c.a, 2);
+      break;
+#endif
 #if SMA_CONSOLE_PREVIEW
     case Op::Cool:
       s.cool_weight = c.a;

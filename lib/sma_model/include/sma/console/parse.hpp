@@ -116,15 +116,15 @@ enum Prop : uint8_t {
 };
 // The numbers: name (in the errors) and range. The upper bounds of mm and V are the Limits'
 // (the stroke g_mm, v_max: arg_bound()), marked -1 and -2 in the table.
-enum Arg : uint8_t { kNoArg, kArgMm, kArgV, kArgKp, kArgKi, kArgKd, kArgDegC, kArgTs, kArgSlope, kArgValue, kArgW };
+enum Arg : uint8_t { kNoArg, kArgMm, kArgV, kArgKp, kArgKi, kArgKd, kArgDegC, kArgTs, kArgSlope, kArgValue, kArgF, kArgW };
 namespace detail {
 #if SMA_CONSOLE_PREVIEW
-inline const char* arg_names() { return SMA_F("- mm V kp ki kd degC t_s slope value W"); }
+inline const char* arg_names() { return SMA_F("- mm V kp ki kd degC t_s slope value F W"); }
 #else
-inline const char* arg_names() { return SMA_F("- mm V kp ki kd degC t_s slope value"); }
+inline const char* arg_names() { return SMA_F("- mm V kp ki kd degC t_s slope value F"); }
 #endif
 static SMA_STORAGE_TABLE double kArgRange[][2] = {
-    {0, 0}, {0, -1}, {0, -2}, {0, 999}, {0, 999}, {0, 999}, {30, 150}, {0, kTrajMaxS}, {0.0001, 1}, {0, 0},
+    {0, 0}, {0, -1}, {0, -2}, {0, 999}, {0, 999}, {0, 999}, {30, 150}, {0, kTrajMaxS}, {0.0001, 1}, {0, 0}, {0, 2},
 #if SMA_CONSOLE_PREVIEW
     {0, 100},
 #endif
@@ -140,12 +140,19 @@ static SMA_STORAGE_TABLE double kArgRange[][2] = {
 #define SMA_COOL_WORD
 #define SMA_COOL_SUB
 #endif
+#if SMA_CONSOLE_LEAD
+#define SMA_LEAD_WORD "lead "
+#define SMA_LEAD_SUB "- "
+#else
+#define SMA_LEAD_WORD
+#define SMA_LEAD_SUB
+#endif
 inline const char* command_words() {
   return SMA_F("pos step sine traj traj traj mode mode mode mode " SMA_PREVIEW_WORD "volt gains tlim tele tele tele status stop help "
-               "train " SMA_COOL_WORD "pbegin pset pget pcommit pabort pinfo");
+               "train " SMA_COOL_WORD SMA_LEAD_WORD "pbegin pset pget pcommit pabort pinfo");
 }
 inline const char* command_subs() {
-  return SMA_F("- - - clear run - open pid ff ffpid " SMA_PREVIEW_SUB "- - - on off plot - - - - " SMA_COOL_SUB "- - - - - -");
+  return SMA_F("- - - clear run - open pid ff ffpid " SMA_PREVIEW_SUB "- - - on off plot - - - - " SMA_COOL_SUB SMA_LEAD_SUB "- - - - - -");
 }
 struct CommandRow {
   Op op;
@@ -180,6 +187,9 @@ static SMA_STORAGE_TABLE CommandRow kCommandRows[] = {
     {Op::Train, 0, kHeats | kTrainCmd | kOptional, {kArgSlope, 0, 0}},
 #if SMA_CONSOLE_PREVIEW
     {Op::Cool, 0, 0, {kArgW, 0, 0}},
+#endif
+#if SMA_CONSOLE_LEAD
+    {Op::Lead, 0, 0, {kArgF, 0, 0}},
 #endif
     {Op::PBegin, 0, kModelCmd | kCold, {0, 0, 0}},
     {Op::PSet, 0, kModelCmd | kCold | kKeyed, {kArgValue, 0, 0}},

@@ -18,12 +18,17 @@
 #ifndef SMA_CONSOLE_PREVIEW
 #define SMA_CONSOLE_PREVIEW 1
 #endif
+// The lead's row (`lead F`, sma::LeadConfig: inverse + PID with the known future) likewise: 1
+// (the host's default) or 0 for a board built without the lead (firmware/include/rig_board.h).
+#ifndef SMA_CONSOLE_LEAD
+#define SMA_CONSOLE_LEAD 1
+#endif
 
 namespace sma {
 namespace console {
 
 constexpr uint8_t kLineMax = 47;    // longest accepted line, without the newline
-constexpr uint8_t kReplyMax = 120;  // longest reply, with the terminating 0
+constexpr uint8_t kReplyMax = 126;  // longest reply, with the terminating 0 (help: 125 characters)
 constexpr double kTrajMaxS = 3600.0;
 
 // Default gains: each mode tuned for its own best result on the paper's sine in rig-like
@@ -84,6 +89,14 @@ struct Settings {
   PidGains gains_pid = kGainsPid;
   PidGains gains_ffpid = kGainsFfpid;
   double tlim_C = 110.0;
+#if SMA_CONSOLE_LEAD
+  // `mode ffpid`'s heating/cooling trade-off on step, sine and traj (lead F): the cooling lead
+  // as a factor of the tuned one (sma::lead_for: 10 s on step, 3 s on sine and traj); 0: the
+  // paper's inverse + PID.
+  double lead = 1.0;
+#else
+  static constexpr double lead = 0.0;
+#endif
   bool tele = false;
   bool plot = false;  // telemetry as Teleplot lines (tele plot) instead of rig-log rows (tele on)
   RefKind run_kind = RefKind::Constant;  // the reference being run (reference())
@@ -131,7 +144,7 @@ constexpr uint8_t kTelePlot = 2;
 
 enum class Op : uint8_t {
   Empty, Pos, Step, Sine, TrajClear, TrajPoint, TrajRun, SetMode, Volt, Gains, Tlim, Tele,
-  Status, Stop, Help, Train, Cool, PBegin, PSet, PGet, PCommit, PAbort, PInfo
+  Status, Stop, Help, Train, Cool, Lead, PBegin, PSet, PGet, PCommit, PAbort, PInfo
 };
 
 // Model commands: executed by the firmware on its EEPROM (model_command()), not by apply().
