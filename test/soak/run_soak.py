@@ -76,8 +76,9 @@ class Gen:
     def valid(self):
         r = self.r
         k = r.choices(["pos", "step", "sine", "traj_clear", "traj_pt", "traj_run", "mode", "volt",
-                       "gains", "tlim", "tele", "status", "stop", "help", "empty", "limits", "pad47", "newer"],
-                      [14, 3, 3, 2, 6, 3, 6, 4, 4, 4, 2, 3, 4, 1, 2, 4, 1, 2])[0]
+                       "gains", "tlim", "tele", "status", "stop", "help", "empty", "limits", "pad47", "newer",
+                       "lead"],
+                      [14, 3, 3, 2, 6, 3, 6, 4, 4, 4, 2, 3, 4, 1, 2, 4, 1, 2, 3])[0]
         if k == "pos":
             return f"pos {self.num(0, G_MM)}", "ok", True
         if k in ("step", "sine"):
@@ -106,6 +107,8 @@ class Gen:
             if r.random() < 0.8:
                 return f"gains {self.num(0, 60, 2)} {self.num(0, 20, 2)} {self.num(0, 1, 3)}", "ok", False
             return f"gains {self.num(0, 999, 1)} {self.num(0, 999, 1)} {self.num(0, 999, 1)}", "ok", False
+        if k == "lead":  # inverse + PID's known future: the factor on its tuned lead (0: the paper's)
+            return f"lead {self.num(0, 2.0, 2)}", "ok", False
         if k == "tlim":
             lo, hi = (90, 150) if r.random() < 0.8 else (30, 90)
             return f"tlim {self.num(lo, hi, 1)}", "ok", False
@@ -159,7 +162,8 @@ class Gen:
             return r.choice(["frobnicate", "POS 0.4", "Stop", "step now", "sine 1", "pos 0.4 0.5",
                              "pos", "volt", "gains 1 2", "gains 1 2 3 4", "mode", "mode warp",
                              "mode ffpid x", "tele", "tele maybe", "traj", "traj 1", "traj clear now",
-                             "status 1", "help me", "stop!", "tlim", "tlim 100 1"]), "err", False
+                             "status 1", "help me", "stop!", "tlim", "tlim 100 1", "lead", "lead 2.5",
+                             "lead -1", "lead 1 1"]), "err", False
         if k == "garbage":
             first = r.choice("#!$%&*+-./0123456789:;<=>?@ABCDEFGHIJKLMNOPQRSTUVWXYZ[]^_`{|}~")
             body = "".join(r.choice("abcdefghijklmnopqrstuvwxyz0123456789 .,;:-+=_!?") for _ in range(r.randint(0, 40)))

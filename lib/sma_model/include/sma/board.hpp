@@ -133,9 +133,11 @@ template <class R>
 constexpr auto rig_lead(int) -> decltype(R::lead()) { return R::lead(); }
 template <class R>
 constexpr bool rig_lead(long) { return false; }
-// The next tick's known future (Board::prepare_future), on a board with the lead only.
+// The next tick's reference and, on a board with the lead, its known future
+// (Board::prepare_future).
 template <class T, bool kLead>
 struct FutureSlot {
+  T* now() { return &future_.now; }
   Lookahead<T>* future() { return &future_; }
   void set_lead(bool lead) { lead_ = lead; }
   bool lead() const { return lead_; }
@@ -144,9 +146,11 @@ struct FutureSlot {
 };
 template <class T>
 struct FutureSlot<T, false> {
+  T* now() { return &now_; }
   Lookahead<T>* future() { return nullptr; }
   void set_lead(bool) {}
   bool lead() const { return false; }
+  T now_;
 };
 // Rig::preview_steps_per_tick(), or the default config's.
 template <class R>
@@ -280,9 +284,10 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
         ctl().set_voltage(from_double<T>(training_voltage(t_of(k))));
       }
     } else {
-      // (With the lead: the reference prepared between ticks, prepare_future. A tick the slot
-      // was not prepared for, once after an overrun or an EEPROM write, reads the one before.)
-      ref = kPreview ? ref_at(t_of(k)) : kLead ? v_.x.future()->now : gen().at_tick(k, 1.0 / Rig::tick_hz());
+      // (The reference prepared between ticks, prepare_future: the control section does not
+      // evaluate it. A tick the slot was not prepared for, once after an overrun or an EEPROM
+      // write, reads the one prepared before.)
+      ref = kPreview ? ref_at(t_of(k)) : *v_.x.now();
     }
     // (The preview runs instead of the Controller: its wire estimate is the one watched.)
     const T v_cmd = preview_on() ? preview().step(ref, Future{this, t_of(k)}, d) : (kLead ? ctl().step(ref, d, *v_.x.future(), v_.x.lead()) : ctl().step(ref, d));
@@ -320,7 +325,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     live_.x.temp_C = to_double(wire_temperature());
     live_.x.fault = safety_.x.fault();
     ctl().prepare_next_tick();  // a reversal's loop ahead of its tick (Controller)
-    if (kLead) prepare_future(v_.x.ticks_ - v_.x.run_start_ + 1u);  // the next tick's known future, likewise
+    prepare_future(v_.x.ticks_ - v_.x.run_start_ + 1u);  // the next tick's reference, likewise
     if (preview_on()) preview().prepare_next_tick();  // the preview's model wire, likewise
     if (state_.s.tele) {
       if (v_.x.header_due_ && !state_.s.plot) {
@@ -679,7 +684,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     r.constant_mm = state_.s.pos_mm;
     new (&gen_.gen) Gen(r, 1.0 / Rig::tick_hz());
     r.kind = RefKind::Trajectory;
-    if (kLead) prepare_future(0u);
+    prepare_future(0u);
   }
 
   // Inverse + PID with the known future (LeadConfig, issue 13) on the references that have one,
@@ -697,11 +702,15 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     v_.x.set_lead(lead);
     if (kPreview && !lead) return;  // (a board with the preview reads its reference itself: ref_at)
     const double dt = 1.0 / Rig::tick_hz();
+    if (!kLead) {
+      *v_.x.now() = gen().at_tick(k, dt);
+      return;
+    }
     const RefKind kind = state_.s.run_kind;
     // The lead: `lead F` times the tuned one of the reference's kind (lead_for), truncated to
     // ticks (exact for the tuned one).
-    const double tuned = kind == RefKind::MultiStep ? lead_for(RefKind::MultiStep).lead_ticks(dt)
-                                                    : lead_for(RefKind::Sine).lead_ticks(dt);
+    const double tuned = static_cast<double>(kind == RefKind::MultiStep ? lead_for(RefKind::MultiStep).lead_ticks(dt)
+                                                                        : lead_for(RefKind::Sine).lead_ticks(dt));
     *v_.x.future() = gen().lookahead(k, trunc_u32(state_.s.lead * tuned), LeadConfig().sample_ticks(dt), dt, lead);
   }
 

@@ -22,6 +22,7 @@
 // | stop                 | heater off (mode off), clears a latched fault           |            |
 // | help                 | list the commands                                       |            |
 // | cool <W>             | preview: weight of errors while the reference falls (sma/preview.hpp cool_weight; where Limits::preview) | 0..100 |
+// | lead <F>             | ffpid on a reference: the cooling lead as a factor of the tuned one (sma::lead_for; 0: the paper's inverse + PID; where SMA_CONSOLE_LEAD) | 0..2 |
 // | train [slope]        | the paper's training signal open loop (sma/training.hpp), then heater off | 0.0001..1 V/s |
 // | pbegin               | start a new model set in the inactive EEPROM slot (copy of the active one) | |
 // | pset <key> <value>   | write one value of the staged set: `OK pset <key> 0x<float32 bits read back>` | per key |
