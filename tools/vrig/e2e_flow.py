@@ -13,7 +13,8 @@ with the temperature rise). Everything goes through the project's own tools, as 
                               --refit-base all
   4. on the board:            tools/sma upload PARAMS.json --port PTY   (main image, its EEPROM
                               kept in a file, read back and verified by upload)
-  5. the paper's sine and multi-step (the paper's inverse model + PID: `lead 0`, the gains of GAINS), run by
+  5. the paper's sine and multi-step (the paper's inverse model + PID: `lead 0`, the gains of GAINS;
+     and the image's default, inverse + PID with the known future, the firmware's gains), run by
      the main image with that EEPROM, for four models on the board: none uploaded (the paper's
      parameters, the firmware's fallback), the fitted one, fitted + effects, and the true wire
      (the same controller on a plant that matches its model exactly).
@@ -95,15 +96,20 @@ def training_duration(build, slope):
         return read_log(out)["t_s"][-1] + 1.0
 
 
-def paper_test(a, model, ee, test, command, duration):
-    """One of the paper's tests by the main image with `ee` as its EEPROM; -> metrics."""
-    name = f"{test}_{model}"
+def paper_test(a, model, ee, test, command, duration, default=False):
+    """One of the paper's tests by the main image with `ee` as its EEPROM; -> metrics.
+    `default`: the image's own controller for the reference and its gains (inverse + PID with the
+    known future), else the paper's inverse + PID with the gains of GAINS."""
+    name = f"{test}_{model}" + ("_default" if default else "")
     log_path = os.path.join(a.out, name + ".csv")
     script = log_path + ".script"
     with open(script, "w") as f:
         # (`lead 0`: the paper's inverse + PID, the controller these models are compared on; the
         # image's default for references adds the known future.)
-        f.write("0.0 tele on\n0.02 mode ffpid\n0.03 gains %g %g %g\n0.04 lead 0\n0.05 %s\n" % (*GAINS[test], command))
+        if default:
+            f.write("0.0 tele on\n0.05 %s\n" % command)
+        else:
+            f.write("0.0 tele on\n0.02 mode ffpid\n0.03 gains %g %g %g\n0.04 lead 0\n0.05 %s\n" % (*GAINS[test], command))
     ee_copy = os.path.join(a.out, name + ".eeprom")  # a run saves its EEPROM at the end: one each
     if os.path.exists(ee):
         shutil.copy(ee, ee_copy)
@@ -253,11 +259,15 @@ def main():
             f.write(up.stdout + up.stderr)
 
     # 5. the paper's tests with each model on the board
-    log(f"5/6 the paper's sine and multi-step with each model on the board ({len(MODELS) * len(TESTS)} runs, "
+    log(f"5/6 the paper's sine and multi-step with each model on the board ({2 * len(MODELS) * len(TESTS)} runs: "
+        f"the paper's inverse + PID and the image's default, "
         f"{a.jobs} at a time) ...")
     results = {}
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as pool:
         futs = {(m, t): pool.submit(paper_test, a, m, eeprom[m], t, c, d) for m, _ in MODELS for t, c, d in TESTS}
+        # The image's default (the known future, the firmware's gains) with the same models.
+        futs.update({(m, t, "default"): pool.submit(paper_test, a, m, eeprom[m], t, c, d, True)
+                     for m, _ in MODELS for t, c, d in TESTS})
         with progress.Progress("5/6 paper's tests", total=len(futs)) as bar:
             for fu in concurrent.futures.as_completed(futs.values()):
                 fu.result()
@@ -273,6 +283,15 @@ def main():
         s, t = results[(m, "sine")], results[(m, "steps")]
         lines.append(f"| {label} | {s['max_heat_mm']:.4f} | {s['rms_heat_mm']:.4f} | {s['rms_mm']:.4f} | "
                      f"{t['max_heat_mm']:.4f} | {t['rms_heat_mm']:.4f} | {t['rms_mm']:.4f} |")
+
+    lines += ["", "The image's default for references (inverse + PID with the known future, the firmware's "
+              "gains), whole run, the same models (reported, not checked):", "",
+              "| model on the board | sine max mm | sine RMS mm | multi-step max mm | multi-step RMS mm | "
+              "wrong way after / before a step mm | steady state mm |", "|---|---|---|---|---|---|---|"]
+    for m, label in MODELS:
+        s, t = results[(m, "sine", "default")], results[(m, "steps", "default")]
+        lines.append(f"| {label} | {s['max_mm']:.4f} | {s['rms_mm']:.4f} | {t['max_mm']:.4f} | {t['rms_mm']:.4f} | "
+                     f"{t['wrong_way_mm']:.4f} / {t['wrong_way_before_mm']:.4f} | {t['sse_mm']:.4f} |")
 
     failures = []
     if HIDDEN not in added:
@@ -297,7 +316,7 @@ def main():
     with open(os.path.join(a.out, "e2e_flow.json"), "w") as f:
         json.dump({"wire": WIRE, "training_slope_V_per_s": a.slope, "effects_added": added,
                    "fitted_params": sources["fitted"], "corrected_params": sources["effects"],
-                   "results": {f"{m}/{t}": v for (m, t), v in results.items()},
+                   "results": {"/".join(k): v for k, v in results.items()},
                    "preview": {f"{m}/{t}": v for (m, t), v in preview.items()},
                    "failures": failures, "wall_s": round(time.time() - t_start, 1)}, f, indent=2)
     if not a.no_plots:
