@@ -169,7 +169,8 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   static constexpr bool kPreview = detail::rig_preview<Rig>(0);
   static_assert(!kPreview || SMA_CONSOLE_PREVIEW, "the preview needs its console rows (SMA_CONSOLE_PREVIEW 1)");
   // Inverse + PID with the known future (Rig::lead(), LeadConfig): `mode ffpid` on a reference
-  // uses it. ~1.1 KB of flash the Uno images do not have yet (docs/control.md section 31).
+  // uses it, `lead F` sets its trade-off. In the Uno's float image; the Q16.16 image is built
+  // without it (its flash, docs/control.md section 31).
   static constexpr bool kLead = detail::rig_lead<Rig>(0);
   static_assert(!kLead || SMA_CONSOLE_LEAD, "the lead needs its console row (SMA_CONSOLE_LEAD 1)");
   typedef Controller<T> Ctl;
@@ -687,8 +688,8 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     prepare_future(0u);
   }
 
-  // Inverse + PID with the known future (LeadConfig, issue 13) on the references that have one,
-  // each with its lead (lead_for).
+  // Inverse + PID with the known future (LeadConfig) on the references that have one, each with
+  // `lead F` times its tuned lead (lead_for).
   // (`lead 0`: the paper's inverse + PID.)
   bool lead_on() const {
     return kLead && ctl().mode() == Mode::FeedforwardPid && !v_.x.training_ && state_.s.run_kind != RefKind::Constant &&

@@ -46,8 +46,8 @@ struct ControllerConfig {
   }
 };
 
-// FeedforwardPid with the known future (issue 13): the caller's setting (the board's console,
-// the host's RunSetup), read through ReferenceGen::lookahead into Controller::step.
+// FeedforwardPid with the known future: the caller's setting (the board's `lead F` times
+// lead_for, the host's RunSetup), read through ReferenceGen::lookahead into Controller::step.
 struct LeadConfig {
   // s; 0: the paper's eq 18. The inverse model reads the reference lead_s ahead where it is
   // lower than now: cooling is passive and slow, the cooling branch is taken lead_s before the

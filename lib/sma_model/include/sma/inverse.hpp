@@ -85,7 +85,7 @@ class InverseModel {
 
   // One tick: reference u (mm) -> feedforward V1 in 0..V_max.
   T step(T u) { return step_(u, u, false); }
-  // The same with the known future (issue 13): `peak`, the highest reference of the next few
+  // The same with the known future (LeadConfig): `peak`, the highest reference of the next few
   // seconds. A heating stops where the minor-loop rise (eqs 5-6) of a reversal at the present
   // point would carry the wire to that peak: the branch turns to cooling and the wire rides the
   // rise up (lower temperature, higher fraction) while the reference still climbs, instead of
