@@ -27,8 +27,9 @@ Prints the error tables (inverse + PID: max and RMS |error| while heating, overa
 preview: whole run, falling half, wrong way, steady state; on the measured position), writes
 OUT/e2e_flow.json, OUT/e2e_flow.md and OUT/e2e_flow.png. With --check it is a test: exit 1
 unless the discrepancy names the hidden effect, fitted + effects is clearly best and close to
-the true wire's result with inverse + PID, and the preview with fitted + effects meets
-PREVIEW_LIMITS on the multi-step.
+the true wire's result with inverse + PID and with the image's default (whole-run RMS; the
+default within DEFAULT_LIMITS), and the preview with fitted + effects meets PREVIEW_LIMITS on
+the multi-step.
 
   e2e_flow.py [--build DIR] [--out DIR] [--speed X] [--slope V/S] [--jobs N] [--check]
               [--preview-only]   (step 6 alone, on the fit and discrepancy of an earlier run in OUT)
@@ -72,6 +73,11 @@ PREVIEW_TESTS = (("sine", "sine", 100.0), ("steps", "step", 150.0))
 # --check on the multi-step with fitted + effects (issue 13: whole-run RMS, wrong way after a
 # down-step, zero steady-state error with a model that is not the wire: 10 um = 5 ADC steps).
 PREVIEW_LIMITS = {"rms_mm": 0.05, "wrong_way_mm": 0.03, "sse_mm": 0.01}
+# --check on the image's default (the known future) with fitted + effects, whole run (issue 13's
+# sine and multi-step limits; its steady-state error is reported: 10-12 um with this model and
+# the true wire's, the default gains' locked-in overshoot of an up-step).
+DEFAULT_LIMITS = {("sine", "max_mm"): 0.12, ("sine", "rms_mm"): 0.05, ("steps", "rms_mm"): 0.05,
+                  ("steps", "wrong_way_mm"): 0.03}
 
 
 def log(msg):
@@ -285,7 +291,7 @@ def main():
                      f"{t['max_heat_mm']:.4f} | {t['rms_heat_mm']:.4f} | {t['rms_mm']:.4f} |")
 
     lines += ["", "The image's default for references (inverse + PID with the known future, the firmware's "
-              "gains), whole run, the same models (reported, not checked):", "",
+              "gains), whole run, the same models:", "",
               "| model on the board | sine max mm | sine RMS mm | multi-step max mm | multi-step RMS mm | "
               "wrong way after / before a step mm | steady state mm |", "|---|---|---|---|---|---|---|"]
     for m, label in MODELS:
@@ -305,6 +311,21 @@ def main():
                 failures.append(f"{test} {key}: fitted + effects {fx:.4f} not clearly below paper/fitted {others:.4f}")
             if not fx <= CLOSE_FACTOR * true + CLOSE_MM:
                 failures.append(f"{test} {key}: fitted + effects {fx:.4f} not close to the true wire's {true:.4f}")
+    # The default: the same ordering on the whole run's RMS (a more exact model never tracks
+    # worse: fitted + effects clearly below paper / fitted, the true wire's close to it either
+    # way), and issue 13's limits with fitted + effects.
+    for test, _, _ in TESTS:
+        fx = results[("effects", test, "default")]["rms_mm"]
+        others = min(results[("paper", test, "default")]["rms_mm"], results[("fitted", test, "default")]["rms_mm"])
+        true = results[("true", test, "default")]["rms_mm"]
+        if not fx <= CLEARLY_BETTER * others:
+            failures.append(f"default {test} RMS: fitted + effects {fx:.4f} not clearly below paper/fitted {others:.4f}")
+        if not (fx <= CLOSE_FACTOR * true + CLOSE_MM and true <= CLOSE_FACTOR * fx + CLOSE_MM):
+            failures.append(f"default {test} RMS: fitted + effects {fx:.4f} not close to the true wire's {true:.4f}")
+    for (test, key), lim in DEFAULT_LIMITS.items():
+        v = results[("effects", test, "default")][key]
+        if not v <= lim:
+            failures.append(f"default {test} {key} with fitted + effects: {v:.4f} > {lim:g} mm")
 
     # 6. the preview with the same models
     preview, preview_lines, preview_failures = preview_stage(a, sources)
