@@ -126,4 +126,35 @@ TEST(BoardLoop, AdcAndPwmAreTheRigs) {
   }
 }
 
+// Inverse + PID's known future goes to the board as `lead F`, the factor on the board's tuned
+// lead of the reference's kind; a lead the console cannot express is refused, naming it.
+TEST(BoardLoop, TheLeadIsSentAsTheBoardsFactor) {
+  auto lead_line = [](const RunSetup& s) {
+    for (const std::string& l : sma_host::board_commands(s))
+      if (l.compare(0, 5, "lead ") == 0) return l;
+    return std::string();
+  };
+  RunSetup s = foreign_sine(sma::Mode::FeedforwardPid);
+  EXPECT_EQ(lead_line(s), "lead 0");  // no lead: the paper's inverse + PID
+  s.lead = sma::lead_for(s.reference.kind);
+  EXPECT_EQ(lead_line(s), "lead 1");
+  s.lead.lead_s = 1.5;  // half of the sine's tuned 3 s
+  EXPECT_EQ(lead_line(s), "lead 0.5");
+  s.reference = sma::Reference::multi_step();
+  s.lead.lead_s = 15.0;  // 1.5 x the steps' 10 s
+  EXPECT_EQ(lead_line(s), "lead 1.5");
+  s.reference = sma::Reference::constant(0.4);  // no future: no line
+  EXPECT_EQ(lead_line(s), "");
+  s.reference = sma::Reference::sine();
+  s.lead.lead_s = 7.0;  // 2.33 x 3 s: beyond the console's 0..2
+  EXPECT_THROW(sma_host::board_commands(s), sma_host::Error);
+  s.lead.lead_s = 3.0;
+  s.lead.peak_window_s = 5.0;  // the board's window is the default one
+  EXPECT_THROW(sma_host::board_commands(s), sma_host::Error);
+  s.lead.peak_window_s = sma::LeadConfig().peak_window_s;
+  EXPECT_THROW(sma_host::board_commands(s, false), sma_host::Error);  // a board without the lead
+  s.mode = sma::Mode::Pid;  // PID alone: no line
+  EXPECT_EQ(lead_line(s), "");
+}
+
 }  // namespace
