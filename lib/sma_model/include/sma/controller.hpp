@@ -212,11 +212,14 @@ class Controller {
         // the wire up, which the PID would answer by cooling more, a runaway to T_MSi. While
         // it cools, the PID may not heat: heating from a cooling branch only moves along a
         // flat stage (eq 4). V_hold (eq 17 with dT/dt = 0) keeps the estimated wire
-        // temperature where it is.
+        // temperature where it is. The cooling cap is never below V1 itself: after a down-step
+        // the estimate can sit below the inverse's model wire (the PID first cancels part of
+        // V1), and a cap at its V_hold would hold the command under the cooling curve's own
+        // voltage (eq 16, 17) while the wire creeps below the hold, for good.
         const T v_hold = min(hold_ready_ ? hold_ : thermal_hold(), v_max_);
         T lo = -v1_, hi = v_max_ - v1_;
         if (inverse_.heating()) lo = max(lo, v_hold - v1_);
-        else hi = min(hi, max(v_hold - v1_, lo));
+        else hi = min(hi, max(v_hold - v1_, T(0)));
         // On the rise of the peak rule cooling moves the wire up, heating stalls it on a flat
         // stage: the error's sign says nothing of the voltage's, the feedforward rides alone.
         // (Only the peak rule rides: no ride without the lead.)
