@@ -179,13 +179,19 @@ class Controller {
   // away, flash on the Uno; a board with the lead carries only the second, `lead` at run time.)
   template <bool kLead>
   T step_(T ref, T measured, const Lookahead<T>* future, bool lead) {
-    // The fraction for a phase-dependent resistance comes from the measurement (V_hold and the
-    // estimate); latent heat is left out of the estimate (d(eps)/dt of a noisy measurement
-    // would be all noise).
-    // (Eq 1 of the paper does not need it: skip the work.)
-    if (!inverse_.thermal().plain) eps_meas_ = is_finite(measured) ? inverse_.mechanics().fraction(measured, T_wire_) : T(0);
+    // The fraction comes from the measurement: a phase-dependent resistance (V_hold and the
+    // estimate) and the latent heat of what the wire transformed this tick (its change, not its
+    // rate: the measurement's noise telescopes away). Without it the estimate runs ahead of a
+    // wire that absorbs latent heat while it transforms, and V_hold, the PID's floor while
+    // heating, holds the wire past its first setpoint. A sample lost (NaN) keeps the last
+    // fraction. (Eq 1 of the paper needs neither: skip the work.)
+    T d_eps = T(0);
+    if (is_finite(measured)) {
+      d_eps = (inverse_.mechanics().fraction(measured, T_wire_) - eps_meas_) * from_double<T>(kFractionFilter);
+      eps_meas_ = eps_meas_ + d_eps;
+    }
     v_ = compute<kLead>(ref, measured, future, kLead && lead);
-    T_wire_ = inverse_.wire_step()(T_wire_, v_, eps_meas_);
+    T_wire_ = inverse_.wire_step()(T_wire_, v_, eps_meas_, d_eps);
     hold_ready_ = false;  // V_hold was the old estimate's
     return v_;
   }
@@ -247,7 +253,12 @@ class Controller {
   InverseModel<T> inverse_;
   Pid<T> pid_;
   T T_wire_;
-  T eps_meas_ = T(0);  // austenite fraction of the last measurement
+  T eps_meas_ = T(0);  // austenite fraction of the measurements, low-passed (kFractionFilter)
+  // Its low-pass gain per tick: 1/16, a time constant of 0.16 s at the board's 100 Hz (against
+  // the wire's 4 s). The raw fraction's noise (2 um: 0.002) would move the estimate's latent term
+  // by ~0.01 K a tick, up and down: a sensor predictor walking the estimate through its loop
+  // memory (sensor.hpp) would open a minor loop at every tick.
+  static constexpr double kFractionFilter = 1.0 / 16.0;
   T hold_ = T(0);      // thermal_hold() computed between ticks (prepare_next_tick)
   bool hold_ready_ = false;
   T v_max_;

@@ -171,14 +171,14 @@ class InverseModel {
     if (!thermal_.plain) {
       const T eps_f = heating_ ? max(curves_.eps_heat(T_f_), eps_f_)
                                : min(curves_.eps_cool(memory_.loop(), T_f_), eps_f_);
-      deps_dt = (eps_f - eps_f_) * inv_dt_;
+      d_eps_ = eps_f - eps_f_;
+      deps_dt = d_eps_ * inv_dt_;
       eps_f_ = eps_f;
     }
     const T slope = rate + (T_f_ - T_m_) * inv_track_;
     T v1 = min(thermal_.voltage_for(T_m_, slope, eps_f_, deps_dt), v_max_);  // eq 17
     if (!is_finite(v1)) v1 = T(0);
     v1_ = v1;
-    deps_dt_ = deps_dt;
     model_pending_ = true;
     return v1;
   }
@@ -200,7 +200,7 @@ class InverseModel {
   T desired_temperature() const { return memory_.temperature(); }
   T filtered_temperature() const { return T_f_; }
   // (After step(): the model wire at the end of its tick, advanced or not.)
-  T model_temperature() const { return model_pending_ ? wire_step_(T_m_, v1_, eps_f_, deps_dt_) : T_m_; }
+  T model_temperature() const { return model_pending_ ? wire_step_(T_m_, v1_, eps_f_, d_eps_) : T_m_; }
   bool heating() const { return heating_; }
   // The last step rode a loop's rise (the peak rule's, eqs 5-6): on a cooling branch above the
   // rise's end, where cooling moves the wire up.
@@ -229,7 +229,7 @@ class InverseModel {
 
   // (Out of line: one copy for advance_model's two callers, flash on the Uno.)
   __attribute__((noinline)) void advance_model_now() {
-    T_m_ = wire_step_(T_m_, v1_, eps_f_, deps_dt_);
+    T_m_ = wire_step_(T_m_, v1_, eps_f_, d_eps_);
     model_pending_ = false;
   }
 
@@ -241,7 +241,7 @@ class InverseModel {
   T v_max_;
   T inv_dt_, alpha_, inv_tau_, inv_track_, deadband_;
   T T_f_, T_m_, eps_f_, u_prev_, u_extreme_;
-  T v1_, deps_dt_;      // the last step's V1 and d(eps_f)/dt: the model wire's pending tick
+  T v1_, d_eps_;        // the last step's V1 and change of eps_f: the model wire's pending tick
   bool heating_;
   bool model_pending_;  // T_m_ has not had the last step's tick yet (advance_model)
   bool riding_;         // the last step's cooling rode the rise (riding())

@@ -621,7 +621,7 @@ class PreviewCore {
   // k^ G).
   void model_wire_heat(T v, T deps) {
     T_prev_ = T_est_;
-    T next = wire_step_(T_est_, v, eps_est_, deps);
+    T next = wire_step_(T_est_, v, eps_est_, deps * wire_step_.dt);
     if (observing()) next = next - heat_.loss_correction() * (T_est_ - thermal_.T_a);
     T_est_ = next;
   }

@@ -118,10 +118,12 @@ struct WireStep {
   WireStep(const Thermal<T>& thermal, const Params& p, double dt_s, double C_th, double G_th)
       : th(&thermal), exact(p, dt_s, C_th, G_th, thermal.T_a), dt(from_double<T>(dt_s)) {}
 
-  // eps: austenite fraction (phase-dependent resistance); deps_dt: its rate (latent heat).
-  T operator()(T Tw, T V, T eps = T(0), T deps_dt = T(0)) const {
+  // eps: austenite fraction (phase-dependent resistance); d_eps: its change over the tick (the
+  // latent heat of what the wire transformed: fed a measured fraction tick by tick, its noise
+  // does not add up, the changes telescope).
+  T operator()(T Tw, T V, T eps = T(0), T d_eps = T(0)) const {
     if (th->plain) return exact(Tw, V);
-    return Tw + (th->rate(Tw, V, eps) - th->L * deps_dt * th->inv_C) * dt;
+    return Tw + ((th->heat_in(V, eps) - th->heat_loss(Tw)) * dt - th->L * d_eps) * th->inv_C;  // eq 1's heat over the tick
   }
 };
 
