@@ -59,18 +59,25 @@ def format_value(v, room):
 
 
 def pset_line(key, value):
-    """`pset <key> <value>` within the 47-char line; an effect key too long for its value is sent
-    as its parameter alone (sensor_delay.delay_s -> delay_s), which the board also accepts."""
+    """`pset <key> <value>` within the 47-char line; an effect key too long for its value's digits
+    is sent as its parameter alone (sensor_delay.delay_s -> delay_s), which the board also
+    accepts. The decimal sent must carry the float the board stores (it rounds to the same
+    float32): a decimal cut short to fit a long name would add its own error to the board's
+    parsing, and the read-back could then miss the value (0.00598381 for 0.00598381241)."""
     names = [key] + ([key.split(".", 1)[1]] if "." in key and not key.startswith("loop") else [])
-    best = None
+    line = None
     for name in names:
         room = LINE_MAX - len("pset ") - len(name) - 1
-        s = "pset %s %s" % (name, "%d" % value if key == "loops" else format_value(value, room))
-        if best is None or len(s) < len(best):
-            best = s
-        if len(s) <= LINE_MAX and float_close(parse_decimal(s.split()[-1]), value, key):
-            return s
-    return best
+        line = "pset %s %s" % (name, "%d" % value if key == "loops" else format_value(value, room))
+        if len(line) <= LINE_MAX and (key == "loops" or carries_float(line.split()[-1], value)):
+            return line
+    return line  # the most room: the closest decimal there is
+
+
+def carries_float(decimal, value):
+    """The decimal rounds to the float32 of value."""
+    got = parse_decimal(decimal)
+    return got == got and float_bits(got) == float_bits(value)
 
 
 def parse_decimal(s):
