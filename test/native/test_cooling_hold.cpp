@@ -14,6 +14,8 @@
 
 #include "sma_host/board_rig.hpp"
 #include "sma_host/closed_loop.hpp"
+#include "sma_host/e2e_wire.hpp"
+#include "sma_host/metrics.hpp"
 
 namespace {
 using sma_host::HostRig;
@@ -72,6 +74,38 @@ TEST(CoolingHold, ADownStepsHoldIsKept) {
                   s.lead.lead_s, from, until, worst);
       EXPECT_LE(worst, 0.01) << w.name << ", lead " << s.lead.lead_s << " s";  // 5 ADC steps
     }
+  }
+}
+}  // namespace
+
+namespace {
+// A hold approached on the heating branch: with the exact model on the board the PID does not
+// push the wire past the setpoint (it acts on the gap to the model wire, not to the reference,
+// until the model is there), so no up-step of the multi-step overshoots by more than 0.01 mm and
+// none is held off (issue 13). The paper's wire, and the end-to-end flow's wire (hidden non-linear
+// convection) with its true model; the Uno's default.
+TEST(HeatingHold, TheExactModelsStepsDoNotOvershoot) {
+  struct Case {
+    const char* name;
+    sma::Params p;
+    sma::Effects fx;
+  };
+  for (const Case& c : {Case{"paper wire", sma::Params(), sma::Effects()},
+                        Case{"e2e wire", sma_host::e2e_wire(), sma_host::e2e_wire_effects()}}) {
+    RunSetup s;
+    s.plant_params = s.model_params = c.p;
+    s.plant_effects = s.model_effects = c.fx;
+    s.mode = sma::Mode::FeedforwardPid;
+    s.config.gains = sma::console::default_gains(sma::Mode::FeedforwardPid);
+    s.reference = sma::Reference::multi_step();
+    s.lead = sma::lead_for(s.reference.kind);
+    s.condition = sma_host::Condition::rig_like();
+    const std::vector<Sample> r = sma_host::run_board_loop<HostRig>(s);
+    const double over = sma_host::step_overshoot_mm(r, s.reference.step_s, 10.0);
+    const sma_host::Metrics m = sma_host::step_metrics(r, s.reference.step_s);
+    std::printf("%s, exact model: overshoot %.4f mm, SSE %.4f mm, RMS %.4f mm\n", c.name, over, m.sse_mm, m.rms_mm);
+    EXPECT_LE(over, 0.01) << c.name;
+    EXPECT_LE(m.sse_mm, 0.01) << c.name;
   }
 }
 }  // namespace

@@ -20,6 +20,7 @@ using sma_host::RunSetup;
 struct LatentRun {
   double temp_gap_C = 0;  // largest |estimate - true wire temperature| from 2 s after each step on
   sma_host::Metrics m;
+  double overshoot_mm = 0;  // past each new setpoint in the step's direction, within 10 s of it
 };
 
 // The multi-step on a wire with 1 J of latent heat, the board's model with `model_J`.
@@ -52,6 +53,7 @@ LatentRun multi_step_on_latent_wire(double model_J) {
       r.temp_gap_C = fmax(r.temp_gap_C, fabs(loop.board().live().temp_C - plant.temperature()));
   }
   r.m = sma_host::step_metrics(run, s.reference.step_s);
+  r.overshoot_mm = sma_host::step_overshoot_mm(run, s.reference.step_s, 10.0);
   return r;
 }
 
@@ -71,5 +73,9 @@ TEST(WireEstimate, FollowsAWireThatAbsorbsLatentHeat) {
   EXPECT_LE(half.m.rms_mm, none.m.rms_mm);
   EXPECT_LE(exact.m.sse_mm, half.m.sse_mm);
   EXPECT_LE(half.m.sse_mm, none.m.sse_mm);
+  // With the exact model no step overshoots by more than 0.01 mm (issue 13; 5 ADC steps).
+  std::printf("overshoot within 10 s of each step, model 0 / 0.5 / 1 J: %.4f / %.4f / %.4f mm\n", none.overshoot_mm,
+              half.overshoot_mm, exact.overshoot_mm);
+  EXPECT_LE(exact.overshoot_mm, 0.01);
 }
 }  // namespace

@@ -230,12 +230,24 @@ class Controller {
         // stage: the error's sign says nothing of the voltage's, the feedforward rides alone.
         // (Only the peak rule rides: no ride without the lead.)
         if (kLead && inverse_.riding()) lo = hi = T(0);
-        v2_ = pid_.step(ref - measured, measured, lo, hi);
+        // A hold approached on the heating branch (the future: nothing higher ahead): the PID
+        // acts on the gap to where the model wire is, not to the reference. The wire's lag
+        // behind a step is the feedforward's to close (eq 17 plans that path); a PID pushing
+        // on it heats the wire ahead of the model, past the setpoint, and on this branch the
+        // overshoot stays (it may not cool). With an exact model the gap is nil; with a wrong
+        // one the PID closes, from below, what the model leaves.
+        v2_ = pid_.step((kLead ? hold_target(ref, future->peak, lead) : ref) - measured, measured, lo, hi);
         break;
       }
       default: return T(0);
     }
     return clamp(v1_ + v2_, T(0), v_max_);  // NaN -> 0 V (clamp maps it to lo)
+  }
+
+  // (Out of line: the PID's call stays one, flash on the Uno.)
+  __attribute__((noinline)) T hold_target(T ref, T peak, bool lead) const {
+    if (!lead || above(peak, ref) || !inverse_.heating()) return ref;
+    return clamp(inverse_.heating_position(), T(0), ref);  // (min(ref, position): a position is >= 0)
   }
 
   // V1: the inverse model of the reference, with the known future where `lead`: the future's

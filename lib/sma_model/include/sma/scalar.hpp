@@ -26,7 +26,7 @@ inline float sin(float x) { return static_cast<float>(::sin(x)); }
 inline float exp(float x) { return static_cast<float>(::exp(x)); }
 // On the AVR the exponent test inline (avr-libc's isfinite is a call, ~50 cycles with its
 // register moves, and the tick asks ~8 times).
-inline bool is_finite(float x) {
+__attribute__((noinline)) inline bool is_finite(float x) {
 #if defined(__AVR__)
   uint32_t b;
   __builtin_memcpy(&b, &x, 4);
@@ -83,6 +83,12 @@ template <class T> constexpr T clamp(T x, T lo, T hi) {
   return (x > lo) ? ((x < hi) ? x : hi) : lo;
 }
 
+#if defined(__AVR__)
+// float on the AVR: one copy out of line (inline, each clamp is two soft-float compares with the
+// moves of three floats around them). The same result.
+__attribute__((noinline)) inline float clamp(float x, float lo, float hi) { return (x > lo) ? ((x < hi) ? x : hi) : lo; }
+#endif
+
 // clamp(x, 0, 1): the range of a fraction or a normalised argument (NaN -> 0, as clamp).
 template <class T> inline T clamp01(T x) { return clamp(x, T(0), T(1)); }
 
@@ -112,6 +118,10 @@ template <class T> inline bool abs_below(T x, T limit) { return abs(x) < limit; 
 inline bool positive(float x) { return static_cast<int32_t>(float_bits(x)) > 0; }
 inline bool negative(float x) { return float_bits(x) > 0x80000000u; }
 inline bool abs_below(float x, float limit) { return (float_bits(x) & 0x7FFFFFFFu) < float_bits(limit); }
+// a > b for two numbers that are not negative (nor NaN): positions on the stroke. float: on the
+// bit patterns, no soft-float compare.
+template <class T> inline bool above(T a, T b) { return a > b; }
+inline bool above(float a, float b) { return float_bits(a) > float_bits(b); }
 
 // Conversions at the boundary (parameters, telemetry). `T(x)` for built-in types.
 template <class T> inline T from_double(double x) { return static_cast<T>(x); }
