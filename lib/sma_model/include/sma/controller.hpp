@@ -184,7 +184,9 @@ class Controller {
     // rate: the measurement's noise telescopes away). Without it the estimate runs ahead of a
     // wire that absorbs latent heat while it transforms, and V_hold, the PID's floor while
     // heating, holds the wire past its first setpoint. A sample lost (NaN) keeps the last
-    // fraction. (Eq 1 of the paper needs neither: skip the work.)
+    // fraction. (Eq 1 of the paper needs neither, and WireStep ignores both there; the fraction
+    // is read on every model all the same: the test of the model's kind cost 14 B of the Uno's
+    // flash, more than its ~0.6 k cycles of the tick are worth.)
     T d_eps = T(0);
     if (is_finite(measured)) {
       d_eps = (inverse_.mechanics().fraction(measured, T_wire_) - eps_meas_) * from_double<T>(kFractionFilter);
