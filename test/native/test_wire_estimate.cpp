@@ -79,3 +79,26 @@ TEST(WireEstimate, FollowsAWireThatAbsorbsLatentHeat) {
   EXPECT_LE(exact.overshoot_mm, 0.01);
 }
 }  // namespace
+
+namespace {
+// A lost sample (NaN) on a model with latent heat: the heater goes off and the estimate keeps the
+// last fraction, so it neither turns NaN nor takes a jump of the latent heat of a whole
+// transformation (L / C_th ~ 6.7 K) when the sample comes back.
+TEST(WireEstimate, ALostSampleKeepsTheLastFraction) {
+  sma::Effects fx;
+  fx.latent_heat_J = 1.0;
+  sma::ControllerConfig cfg;
+  cfg.gains = sma::console::default_gains(sma::Mode::FeedforwardPid);
+  sma::Controller<float> c(sma::Params(), fx, cfg);
+  c.set_mode(sma::Mode::FeedforwardPid, 0.0f);
+  for (int k = 0; k < 300; ++k) c.step(0.4f, 0.4f);  // the wire measured at 0.4 mm, transformed
+  const float before = c.wire_temperature();
+  EXPECT_EQ(c.step(0.4f, NAN), 0.0f);
+  const float after_nan = c.wire_temperature();
+  ASSERT_TRUE(std::isfinite(after_nan));
+  c.step(0.4f, 0.4f);
+  // One tick of cooling at 0 V and one of the command: well under a kelvin either way.
+  EXPECT_NEAR(after_nan, before, 0.5f);
+  EXPECT_NEAR(c.wire_temperature(), after_nan, 0.5f);
+}
+}  // namespace
