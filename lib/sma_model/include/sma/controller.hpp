@@ -253,12 +253,11 @@ class Controller {
   }
 
   // V1: the inverse model of the reference, with the known future where `lead`: the future's
-  // `ahead` on the stroke (NaN: the present reference) and its peak.
+  // `ahead` (the present reference where it is not below it; NaN: not below) and its peak.
   template <bool kLead>
   T feedforward(T ref, const Lookahead<T>* future, bool lead) {
     if (!kLead) return inverse_.step(ref);
-    const T ahead = lead ? min(ref, future->ahead) : ref;  // (NaN: ref)
-    return inverse_.step(ahead, future->peak, lead);
+    return inverse_.step(ref, future->ahead, future->peak, lead);
   }
 
   ControllerConfig cfg_;

@@ -83,27 +83,42 @@ class InverseModel {
     riding_ = false;
   }
 
-  // One tick: reference u (mm) -> feedforward V1 in 0..V_max.
-  T step(T u) { return step_(u, u, false); }
-  // The same with the known future (LeadConfig): `peak`, the highest reference of the next few
-  // seconds. A heating stops where the minor-loop rise (eqs 5-6) of a reversal at the present
-  // point would carry the wire to that peak: the branch turns to cooling and the wire rides the
-  // rise up (lower temperature, higher fraction) while the reference still climbs, instead of
-  // being heated to the peak and rising past it when the cooling starts (Fig. 12).
-  // (`peak_rule` false: step(u).)
-  T step(T u, T peak, bool peak_rule) { return step_(u, peak, peak_rule); }
+  // One tick: reference u (mm, a position on the stroke: >= 0) -> feedforward V1 in 0..V_max.
+  T step(T u) { return step_(u, u, false, false); }
+  // The same with the known future (LeadConfig): `now`, the present reference; `ahead`, the
+  // reference lead_s ahead; `peak`, the highest reference of the next few seconds.
+  // - The cooling lead: the inverse reads the lower of now and ahead, so its cooling branch
+  //   starts lead_s before the reference falls (cooling is passive and slow).
+  // - No turn against the future: while ahead lies below now the branch does not turn to
+  //   heating, while it lies above, not to cooling. At a valley the lower of the two turns up
+  //   when the point ahead passes the valley, lead_s early, and down again when the present
+  //   reference passes below it; followed, the wire was heated, cooled and heated again. The turn
+  //   to heating now comes when the point ahead rises past the present reference, half the lead
+  //   before a symmetric valley: the wire, heated from its cooling curve, crosses the flat stage
+  //   to the heating curve (eq 4, ~3 s at V_max) without moving while the reference turns.
+  // - The peak rule: a heating stops where the minor-loop rise (eqs 5-6) of a reversal at the
+  //   present point would carry the wire to the peak: the branch turns to cooling and the wire
+  //   rides the rise up (lower temperature, higher fraction) while the reference still climbs,
+  //   instead of being heated to the peak and rising past it when the cooling starts (Fig. 12).
+  // (`peak_rule` false: step(now). The references are positions on the stroke, >= 0.)
+  T step(T now, T ahead, T peak, bool peak_rule) {
+    const bool lower = peak_rule && above(now, ahead);
+    return step_(lower ? ahead : now, peak, peak_rule, lower);
+  }
 
   // (The two inline into one body each: the paper's step(u) compiles to the code it had, the
   // rule folded away, flash on the Uno; a board with the lead carries only the second.)
-  __attribute__((always_inline)) inline T step_(T u, T peak, bool peak_rule) {
+  // `lower`: u is the point ahead, below the present reference (the future lies lower).
+  __attribute__((always_inline)) inline T step_(T u, T peak, bool peak_rule, bool lower) {
     advance_model();  // the last tick's, where the caller did not run it between ticks
     if (!is_finite(u)) u = u_prev_;  // hold the last reference on NaN
     u_prev_ = u;
     // Branch = sign of du/dt (eq 14), decided against the last extreme of the reference rather
     // than tick to tick: a per-tick difference near a turning point is below the resolution
-    // of a fixed-point scalar and would flip on rounding.
-    if (heating_ ? u > u_extreme_ : u < u_extreme_) u_extreme_ = u;
-    if (heating_ ? u < u_extreme_ - deadband_ : u > u_extreme_ + deadband_) {
+    // of a fixed-point scalar and would flip on rounding. With the known future the branch does
+    // not turn against it (`lower`, step(now, ahead, peak, rule)). (Positions >= 0: above().)
+    if (heating_ ? above(u, u_extreme_) : above(u_extreme_, u)) u_extreme_ = u;
+    if ((heating_ ? u < u_extreme_ - deadband_ : u > u_extreme_ + deadband_) && !(peak_rule && heating_ != lower)) {
       // A rising reference that the rise still reaches (above its end, below its top) stays
       // on the cooling branch: it is followed up the rise.
       u_extreme_ = u;
@@ -111,7 +126,7 @@ class InverseModel {
     }
     // The peak rule: only while the reference still climbs towards the peak (a hold is not a
     // peak) and the present heating transformed (a rise exists: its top above eps).
-    if (peak_rule && heating_ && memory_.heating() && peak > u + deadband_) {
+    if (peak_rule && heating_ && memory_.heating() && above(peak, u + deadband_)) {
       const CoolingLoop<T>& L = memory_.prepare_cooling_shape();  // (top needs no rates)
       if (L.top > memory_.eps() && !(mech_.fraction(peak) > L.top)) heating_ = false;
     }
