@@ -246,9 +246,16 @@ class Controller {
     return clamp(v1_ + v2_, T(0), v_max_);  // NaN -> 0 V (clamp maps it to lo)
   }
 
+  // The PID's target while the inverse heats with the known future: a heating kept for the rise
+  // ahead of a valley (the future above, the present reference still falling: InverseModel's
+  // step) acts on the reference the heating turned at, its extreme: the wire stalls there on the
+  // flat stage (eq 4) while it heats, and a PID on the falling reference would hold its
+  // temperature at V_hold, the floor of its heating, until the reference came back up. On a
+  // rising reference the extreme is the reference itself.
   // (Out of line: the PID's call stays one, flash on the Uno.)
   __attribute__((noinline)) T hold_target(T ref, T peak, bool lead) const {
-    if (!lead || above(peak, ref) || !inverse_.heating()) return ref;
+    if (!lead || !inverse_.heating()) return ref;
+    if (above(peak, ref)) return inverse_.extreme();
     return clamp(inverse_.heating_position(), T(0), ref);  // (min(ref, position): a position is >= 0)
   }
 

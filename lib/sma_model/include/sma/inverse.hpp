@@ -170,7 +170,8 @@ class InverseModel {
       // a reference held on the ride then finds the memory at exactly its fraction and rides on,
       // where the fraction walked back from T_new differed by a rounding whose sign decided,
       // scalar by scalar, between riding on and the cooling stage.
-      on_curve = T_new < T_d && (riding || (e > T(0) && e < loop.top && curves_.has_cooling_stage(loop)));
+      // (Fractions >= 0: positive(), above().)
+      on_curve = T_new < T_d && (riding || (positive(e) && above(loop.top, e) && curves_.has_cooling_stage(loop)));
       T_new = min(T_new, T_d);
       riding_ = riding;  // (T_new then lies in T_ii..T_i: the memory is on the rise, riding())
     }
@@ -216,6 +217,9 @@ class InverseModel {
   T filtered_temperature() const { return T_f_; }
   // Where the model wire is on the major heating curve (eq 2 at its temperature, eq 12): the
   // position the feedforward has brought a wire like the model's to so far, while it heats.
+  // The reference's last extreme on this branch (the highest while heating): where a heating
+  // kept against a falling reference turned.
+  T extreme() const { return u_extreme_; }
   T heating_position() const { return mech_.displacement(curves_.eps_heat(T_m_)); }
   // (After step(): the model wire at the end of its tick, advanced or not.)
   T model_temperature() const { return model_pending_ ? wire_step_(T_m_, v1_, eps_f_, d_eps_) : T_m_; }

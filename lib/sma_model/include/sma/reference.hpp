@@ -131,7 +131,7 @@ class ReferenceGen {
         f.ahead = r;
         at = k;
       } else {  // the window's samples
-        f.peak = max(f.peak, r);
+        if (above(r, f.peak)) f.peak = r;  // (positions on the stroke, >= 0)
         if (i == kLookaheadSamples + 1) break;
       }
       at += sample_ticks;

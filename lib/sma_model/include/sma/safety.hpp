@@ -143,7 +143,8 @@ class SafetyLatch {
     if (!is_finite(in.sensor_v) || !is_finite(in.measured_mm) || !is_finite(in.wire_temp_C) ||
         !is_finite(in.command_v))
       return Fault::NotFinite;
-    if (!in.samples_in_range || in.sensor_v < v_min_ || in.sensor_v > v_max_) return Fault::Sensor;
+    // (The samples in range, the mean volts are >= 0, as the range's ends: above().)
+    if (!in.samples_in_range || above(v_min_, in.sensor_v) || above(in.sensor_v, v_max_)) return Fault::Sensor;
     if (in.wire_temp_C > t_limit_) return Fault::OverTemp;
     if (link_ticks_ > 0 && in.heating && since_rx_ > link_ticks_) return Fault::LinkLoss;
     return Fault::None;
