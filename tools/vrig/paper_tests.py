@@ -10,7 +10,8 @@ definitions of the benchmark and the tests), and draws figures like the paper's.
 cycle counter.
 Gains: each controller runs each test with the gains the tuner found for it in rig-like
 conditions (bench_tracking's JSON, sent with the console's `gains` command), as in the native
-benchmark; without that file, the firmware's defaults (tuned on the sine).
+benchmark, and the default with the lead the tuner found with them (its `lead F`, the factor on
+the board's lead of the kind); without that file, the firmware's defaults (tuned on the sine).
 
   paper_tests.py [--build DIR] [--out DIR] [--noise-mm X] [--elf ELF] [--gains-from JSON]
 Writes OUT/{steps,sine}_{pid,ffpid,lead}.csv, OUT/paper_tests.json, OUT/fig09..fig13.png.
@@ -30,10 +31,12 @@ TESTS = (("steps", "step", 150.0), ("sine", "sine", 150.0))
 # (row, label, console mode, commands before the reference): the paper's pair, then the default.
 MODES = (("pid", "PID alone", "pid", ()), ("ffpid", "inverse model + PID (paper, lead 0)", "ffpid", ("lead 0",)),
          ("lead", "inverse + PID, known future (default)", "ffpid", ()))
+# The board's lead of each kind, `lead 1` (sma::lead_for), s; `lead F` multiplies it (0..2).
+BOARD_LEAD_S = {"steps": 10.0, "sine": 3.0}
 
 
-def tuned_gains(path, test, mode):
-    """(kp, ki, kd) the tuner found for this test and controller in rig-like conditions."""
+def tuned_row(path, test, mode):
+    """The tuner's row for this test and controller in rig-like conditions (double), or None."""
     if not path or not os.path.isfile(path):
         return None
     with open(path) as f:
@@ -41,8 +44,28 @@ def tuned_gains(path, test, mode):
     for r in runs:
         if (r["test"] == ("sine" if test == "sine" else "multi-step") and r["condition"] == "rig-like"
                 and r["controller"] == mode and r["scalar"] == "double"):
-            return r["kp"], r["ki"], r["kd"]
+            return r
     return None
+
+
+def tuned_gains(path, test, mode):
+    """(kp, ki, kd) the tuner found for this test and controller in rig-like conditions."""
+    r = tuned_row(path, test, mode)
+    return (r["kp"], r["ki"], r["kd"]) if r else None
+
+
+def lead_command(path, test):
+    """(`lead F` for the lead the tuner found on this test, that lead in s), or None where it is
+    the board's own or out of the console's range. F puts the
+    board's lead (F times BOARD_LEAD_S, truncated to 10-ms ticks) on the tuner's tick: half a tick
+    above it, so that the truncation of F's float lands on it."""
+    r = tuned_row(path, test, "lead")
+    if not r or not r.get("lead_s"):
+        return None
+    ticks, board = round(r["lead_s"] * 100), round(BOARD_LEAD_S[test] * 100)
+    if ticks == board or not 0 < ticks <= 2 * board:  # the board's own; the console's range 0..2
+        return None
+    return "lead %.7g" % min((ticks + 0.5) / board, 2.0), r["lead_s"]  # (2: exact in float)
 
 
 def run_vrig(vrig, elf, mode, command, duration, log, noise, cycles, gains=None, pre=(), mcu=None):
@@ -119,6 +142,9 @@ def main():
         cyc = os.path.join(out, f"{test}_{mode}_cycles.json")
         _, _, console_mode, pre = next(m for m in MODES if m[0] == mode)
         gains = tuned_gains(gains_file, test, mode)
+        lead = lead_command(gains_file, test) if mode == "lead" and gains else None
+        if lead:
+            pre = pre + (lead[0],)
         run_vrig(vrig, elf, console_mode, command, duration, log, a.noise_mm, cyc, gains, pre=pre)
         d = read_log(log)
         start = float(d["t_s"][d["ref_mm"] > 0][0])  # the reference starts with the command
@@ -127,6 +153,8 @@ def main():
             m["cycles"] = json.load(f)
         m["wall_s"] = round(time.time() - t0, 1)
         m["gains"] = gains or "firmware defaults"
+        if mode == "lead":
+            m["lead_s"] = lead[1] if lead else BOARD_LEAD_S[test]
         return m
 
     print(f"firmware in the virtual rig: {len(runs)} runs of 150 s simulated (steps and sine x PID alone, "
@@ -153,6 +181,8 @@ def main():
             m = results[f"{test}_{mode}"]
             c = m["cycles"]
             g = m["gains"] if isinstance(m["gains"], str) else ", ".join("%.3g" % x for x in m["gains"])
+            if "lead_s" in m:
+                g += "; lead %g s" % m["lead_s"]
             print(f"| {test} | {label} | {g} | {m['max_mm']:.4f} | {m['rms_mm']:.4f} | {m['max_rise_mm']:.4f} | "
                   f"{m['max_fall_mm']:.4f} | {m['rms_fall_mm']:.4f} | {m['wrong_way_mm']:.4f} | "
                   f"{m['settle_max_s']:.2f} | {m['sse_mm']:.4f} | {m['max_heat_mm']:.4f} | "
