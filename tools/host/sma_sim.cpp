@@ -84,7 +84,9 @@ std::string fmt(double x, int prec = 6) {
 }
 
 sma::Reference trajectory_from_csv(const std::string& path) {
-  Pwl p = csv_signal(path);  // same strict t,value reader
+  // The same strict t,value reader; positions on the stroke are >= 0, as the console's `traj`
+  // takes them (the lookahead compares them on their bits, sma::above).
+  Pwl p = csv_signal(path, "position (a position on the stroke is >= 0 mm)", "mm");
   sma::Reference r = sma::console::State::trajectory();
   if (p.points().size() > sma::kMaxPoints)
     throw Error(path + ": at most " + std::to_string(sma::kMaxPoints) + " trajectory points");

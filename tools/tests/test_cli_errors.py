@@ -93,6 +93,15 @@ def test_training_probe_out_of_range_is_refused(binaries, tmp_path):
     assert "training signal: every probe level must be in 0..5 V" in r.stderr
 
 
+def test_a_trajectory_below_the_stroke_is_refused_as_a_position(binaries, tmp_path):
+    traj = tmp_path / "traj.csv"
+    traj.write_text("t_s,mm\n0,0.2\n5,-0.1\n10,0.4\n")
+    r = run_sma("sim", "--ref", "traj:%s" % traj, "--out", tmp_path / "o.csv", check=False)
+    assert r.returncode != 0
+    assert "traj.csv:3: negative position" in r.stderr
+    assert "voltage" not in r.stderr
+
+
 def test_a_port_that_cannot_be_opened_is_named(binaries, tmp_path):
     for cmd in (["console", "--port", "/dev/nonexistent-sma-port", "--send", "status"],
                 ["upload", str(tmp_path / "p.json"), "--port", "/dev/nonexistent-sma-port"]):

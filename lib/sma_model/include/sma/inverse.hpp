@@ -215,11 +215,11 @@ class InverseModel {
 
   T desired_temperature() const { return memory_.temperature(); }
   T filtered_temperature() const { return T_f_; }
-  // Where the model wire is on the major heating curve (eq 2 at its temperature, eq 12): the
-  // position the feedforward has brought a wire like the model's to so far, while it heats.
   // The reference's last extreme on this branch (the highest while heating): where a heating
   // kept against a falling reference turned.
   T extreme() const { return u_extreme_; }
+  // Where the model wire is on the major heating curve (eq 2 at its temperature, eq 12): the
+  // position the feedforward has brought a wire like the model's to so far, while it heats.
   T heating_position() const { return mech_.displacement(curves_.eps_heat(T_m_)); }
   // (After step(): the model wire at the end of its tick, advanced or not.)
   T model_temperature() const { return model_pending_ ? wire_step_(T_m_, v1_, eps_f_, d_eps_) : T_m_; }

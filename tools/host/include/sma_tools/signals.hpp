@@ -99,7 +99,8 @@ inline Pwl steps_signal(const std::string& spec, double tail_s) {
 }
 
 // A CSV of t,V (header optional, '#' comments), linear between points; strict like the logs.
-inline Pwl csv_signal(const std::string& path) {
+// `value`: what the second column is, for the messages (a voltage, or a trajectory's position).
+inline Pwl csv_signal(const std::string& path, const std::string& value = "voltage", const std::string& column = "V") {
   std::ifstream f(path);
   if (!f) throw Error(path + ": cannot open");
   Pwl s;
@@ -118,12 +119,12 @@ inline Pwl csv_signal(const std::string& path) {
         first = false;
         continue;
       }
-      throw Error(path + ":" + std::to_string(lineno) + ": expected two numbers t,V");
+      throw Error(path + ":" + std::to_string(lineno) + ": expected two numbers t," + column);
     }
     first = false;
     if (!s.empty() && !(t > s.points().back().first))
       throw Error(path + ":" + std::to_string(lineno) + ": time does not increase");
-    if (v < 0.0) throw Error(path + ":" + std::to_string(lineno) + ": negative voltage");
+    if (v < 0.0) throw Error(path + ":" + std::to_string(lineno) + ": negative " + value);
     s.add(t, v);
   }
   if (s.empty()) throw Error(path + ": no t,V points");
