@@ -61,15 +61,9 @@ int main(int argc, char** argv) {
         const sma::Mode mode = modes[i];
         const bool lead = i == 3;
         RunSetup s;
-        s.mode = mode;
         s.condition = c ? Condition::rig_like() : Condition::ideal();
         s.reference = sine ? sma::Reference::sine() : sma::Reference::multi_step();
-        if (mode == sma::Mode::Preview) s.preview = sma_host::tune_preview(s, objective).config;
-        else if (lead) {
-          const sma_host::LeadTuneResult t = sma_host::tune_lead(s, objective);
-          s.lead.lead_s = t.lead_s;
-          s.config.gains = t.pid.gains;
-        } else if (mode != sma::Mode::Feedforward) s.config.gains = sma_host::tune_pid(s, objective).gains;
+        s = sma_host::tuned(s, mode, lead, objective);
         const char* name = lead ? "lead" : sma::mode_name(mode);
         progress("[%2d/20] tuning and running %-5s %-7s %s", ++done, sine ? "sine" : "steps", name, s.condition.name);
         const char* names[] = {"double", "float", "fixed"};

@@ -169,6 +169,23 @@ inline PreviewTuneResult tune_preview(RunSetup base, Objective o = Objective::Wh
   return best;
 }
 
+// A controller set up as every benchmark runs it, tuned by the stated method for objective o:
+// the preview by tune_preview, inverse + PID with the known future (`lead`) by tune_lead, PID
+// alone and inverse + PID by tune_pid; the feedforward alone has nothing to tune.
+inline RunSetup tuned(RunSetup s, sma::Mode mode, bool lead, Objective o) {
+  s.mode = mode;
+  if (mode == sma::Mode::Preview) {
+    s.preview = tune_preview(s, o).config;
+  } else if (lead) {
+    const LeadTuneResult t = tune_lead(s, o);
+    s.lead.lead_s = t.lead_s;
+    s.config.gains = t.pid.gains;
+  } else if (mode != sma::Mode::Feedforward) {
+    s.config.gains = tune_pid(s, o).gains;
+  }
+  return s;
+}
+
 }  // namespace sma_host
 
 #endif  // SMA_HOST_TUNE_HPP
