@@ -28,6 +28,7 @@ struct Row {
   sma::PidGains gains;
   sma::PreviewConfig preview;
   double lead_s;
+  double board_lead_s;  // the board's lead of this reference (sma::lead_for; `lead 1`), s
   Metrics m;
 };
 
@@ -69,7 +70,8 @@ int main(int argc, char** argv) {
         const char* names[] = {"double", "float", "fixed"};
         for (int k = 0; k < 3; ++k) {
           Row r{sine ? "sine" : "multi-step", s.condition.name, name, names[k],
-                s.config.gains, s.preview, s.lead.lead_s, Metrics()};
+                s.config.gains, s.preview, s.lead.lead_s, lead ? sma::lead_for(s.reference.kind).lead_s : 0.0,
+                Metrics()};
           r.m = k == 0 ? run<double>(s) : k == 1 ? run<float>(s) : run<sma::Fixed>(s);
           rows.push_back(r);
         }
@@ -125,12 +127,12 @@ int main(int argc, char** argv) {
                  "\"max_rise_mm\": %.6f, \"rms_rise_mm\": %.6f, \"max_fall_mm\": %.6f, \"rms_fall_mm\": %.6f, "
                  "\"wrong_way_mm\": %.6f, \"wrong_way_before_mm\": %.6f, \"settle_s\": %.3f, \"settle_max_s\": %.3f, \"sse_mm\": %.6f, "
                  "\"max_heat_mm\": %.6f, \"rms_heat_mm\": %.6f, \"max_cool_mm\": %.6f, \"overshoot_pct\": %.3f, \"track_s\": %g, \"offset_tau_s\": %g, "
-                 "\"cool_weight\": %g, \"lead_s\": %g}%s\n",
+                 "\"cool_weight\": %g, \"lead_s\": %g, \"board_lead_s\": %g}%s\n",
                  r.test.c_str(), r.condition.c_str(), r.controller.c_str(), r.scalar.c_str(), r.gains.kp,
                  r.gains.ki, r.gains.kd, r.m.max_mm, r.m.rms_mm, r.m.max_rise_mm, r.m.rms_rise_mm,
                  r.m.max_fall_mm, r.m.rms_fall_mm, r.m.wrong_way_mm, r.m.wrong_way_before_mm, r.m.settle_s, r.m.settle_max_s,
                  r.m.sse_mm, r.m.max_heat_mm, r.m.rms_heat_mm, r.m.max_cool_mm, r.m.overshoot_pct,
-                 r.preview.track_s, r.preview.offset_tau_s, r.preview.cool_weight, r.lead_s,
+                 r.preview.track_s, r.preview.offset_tau_s, r.preview.cool_weight, r.lead_s, r.board_lead_s,
                  i + 1 < rows.size() ? "," : "");
   }
   std::fprintf(f, "  ]\n}\n");

@@ -31,8 +31,6 @@ TESTS = (("steps", "step", 150.0), ("sine", "sine", 150.0))
 # (row, label, console mode, commands before the reference): the paper's pair, then the default.
 MODES = (("pid", "PID alone", "pid", ()), ("ffpid", "inverse model + PID (paper, lead 0)", "ffpid", ("lead 0",)),
          ("lead", "inverse + PID, known future (default)", "ffpid", ()))
-# The board's lead of each kind, `lead 1` (sma::lead_for), s; `lead F` multiplies it (0..2).
-BOARD_LEAD_S = {"steps": 10.0, "sine": 3.0}
 
 
 def tuned_row(path, test, mode):
@@ -56,16 +54,24 @@ def tuned_gains(path, test, mode):
 
 def lead_command(path, test):
     """(`lead F` for the lead the tuner found on this test, that lead in s), or None where it is
-    the board's own or out of the console's range. F puts the
-    board's lead (F times BOARD_LEAD_S, truncated to 10-ms ticks) on the tuner's tick: half a tick
+    the board's own, out of the console's range or unknown. `lead F` multiplies the board's lead
+    of the reference's kind (`lead 1`, sma::lead_for: the tuner's row carries it as
+    board_lead_s); F puts that lead, truncated to 10-ms ticks, on the tuner's tick: half a tick
     above it, so that the truncation of F's float lands on it."""
     r = tuned_row(path, test, "lead")
-    if not r or not r.get("lead_s"):
+    if not r or not r.get("lead_s") or not r.get("board_lead_s"):
         return None
-    ticks, board = round(r["lead_s"] * 100), round(BOARD_LEAD_S[test] * 100)
+    ticks, board = round(r["lead_s"] * 100), round(r["board_lead_s"] * 100)
     if ticks == board or not 0 < ticks <= 2 * board:  # the board's own; the console's range 0..2
         return None
     return "lead %.7g" % min((ticks + 0.5) / board, 2.0), r["lead_s"]  # (2: exact in float)
+
+
+def lead_seconds(path, test):
+    """The lead the default runs with, s: the tuner's (sent, or the board's own), None where the
+    board runs its own without a tuner's row to name it."""
+    r = tuned_row(path, test, "lead")
+    return r.get("lead_s") if r else None
 
 
 def run_vrig(vrig, elf, mode, command, duration, log, noise, cycles, gains=None, pre=(), mcu=None):
@@ -153,8 +159,8 @@ def main():
             m["cycles"] = json.load(f)
         m["wall_s"] = round(time.time() - t0, 1)
         m["gains"] = gains or "firmware defaults"
-        if mode == "lead":
-            m["lead_s"] = lead[1] if lead else BOARD_LEAD_S[test]
+        if mode == "lead" and gains and lead_seconds(gains_file, test):
+            m["lead_s"] = lead_seconds(gains_file, test)
         return m
 
     print(f"firmware in the virtual rig: {len(runs)} runs of 150 s simulated (steps and sine x PID alone, "
