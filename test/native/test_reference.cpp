@@ -38,7 +38,10 @@ TEST(Reference, TrajectoryInterpolatesAndRejectsBadPoints) {
   EXPECT_FALSE(ref.add_point(10.0, 0.6));  // time must increase
   EXPECT_FALSE(ref.add_point(NAN, 0.6));
   EXPECT_FALSE(ref.add_point(12.0, INFINITY));
+  EXPECT_FALSE(ref.add_point(12.0, -0.05));  // below the stroke: not a position
   EXPECT_EQ(ref.n_points, 2);
+  EXPECT_TRUE(ref.add_point(12.0, 0.0));  // the stroke's start is one
+  ref.n_points = 2;
   const sma::ReferenceGen<double> r(ref);
   EXPECT_NEAR(r.at(5.0), 0.3, 1e-12);
   EXPECT_NEAR(r.at(-1.0), 0.1, 1e-12);

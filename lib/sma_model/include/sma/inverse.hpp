@@ -56,17 +56,17 @@ class InverseModel {
   // With C_th and G computed once for the thermal model and its wire step.
   InverseModel(const Params& p, const Effects& fx, const InverseConfig& cfg, double dt, const double& v_max,
                double C_th, double G_th)
-      : curves_(p),
-        thermal_(p, fx, C_th, G_th),
-        mech_(p, fx),
-        memory_(curves_, from_field<T>(p.T_amb), T(0)),
-        wire_step_(thermal_, p, dt, C_th, G_th),
-        v_max_(from_field<T>(v_max)),
+      : v_max_(from_field<T>(v_max)),
         inv_dt_(reciprocal_as<T>(dt)),
         alpha_(low_pass_gain_as<T>(dt, cfg.rate_filter_s)),
         inv_tau_(reciprocal_as<T>(cfg.rate_filter_s)),
         inv_track_(reciprocal_as<T>(cfg.track_s)),
-        deadband_(from_field<T>(cfg.deadband_mm)) {
+        deadband_(from_field<T>(cfg.deadband_mm)),
+        curves_(p),
+        thermal_(p, fx, C_th, G_th),
+        mech_(p, fx),
+        memory_(curves_, from_field<T>(p.T_amb), T(0)),
+        wire_step_(thermal_, p, dt, C_th, G_th) {
     reset(from_field<T>(p.T_amb), T(0));
   }
 
@@ -255,11 +255,8 @@ class InverseModel {
     model_pending_ = false;
   }
 
-  PhaseCurves<T> curves_;
-  Thermal<T> thermal_;
-  Mechanics<T> mech_;
-  Hysteresis<T> memory_;
-  WireStep<T> wire_step_;
+  // (The tick's scalars first, the models after them: the AVR's loads reach 63 bytes past an
+  // object's address, flash on the Uno.)
   T v_max_;
   T inv_dt_, alpha_, inv_tau_, inv_track_, deadband_;
   T T_f_, T_m_, eps_f_, u_prev_, u_extreme_;
@@ -267,6 +264,11 @@ class InverseModel {
   bool heating_;
   bool model_pending_;  // T_m_ has not had the last step's tick yet (advance_model)
   bool riding_;         // the last step's cooling rode the rise (riding())
+  PhaseCurves<T> curves_;
+  Thermal<T> thermal_;
+  Mechanics<T> mech_;
+  Hysteresis<T> memory_;
+  WireStep<T> wire_step_;
 };
 
 }  // namespace sma

@@ -65,9 +65,11 @@ struct Reference : RefShape {
     }
   }
 
-  // Appends a trajectory point; false (and nothing changes) if full or time not increasing.
+  // Appends a trajectory point; false (and nothing changes) if full, time not increasing, or the
+  // position below the stroke (the known future's compares take positions >= 0: Lookahead).
+  // (The sign on the bits: no soft-float compare on the AVR, where double is float.)
   bool add_point(double t, double mm) {
-    if (n_points >= kMaxPoints || !is_finite(t) || !is_finite(mm)) return false;
+    if (n_points >= kMaxPoints || !is_finite(t) || !is_finite(mm) || negative(static_cast<float>(mm))) return false;
     if (n_points > 0 && !(t > point_t[n_points - 1])) return false;
     point_t[n_points] = t;
     point_mm[n_points] = mm;
