@@ -114,11 +114,7 @@ class Controller {
 
   // Voltage of the open-loop mode, clamped to 0..V_max.
   void set_voltage(T v) { v_open_ = clamp(v, T(0), v_max_); }
-  void set_gains(const PidGains& g) {
-    cfg_.gains = g;
-    pid_.set_gains(g, cfg_.dt);
-  }
-  const ControllerConfig& config() const { return cfg_; }
+  void set_gains(const PidGains& g) { pid_.set_gains(g, dt_); }
 
   // One tick: reference and measured displacement (mm) -> voltage across the wire, 0..V_max.
   // The wire temperature estimate advances with the voltage actually commanded (eq 1 with the
@@ -163,7 +159,7 @@ class Controller {
   }
   // `cfg_ok`: the config's check(), done by the caller (at compile time for CheckedConfig).
   Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg, bool cfg_ok)
-      : cfg_(cfg),
+      : dt_(cfg.dt),
         inverse_(p, fx, cfg.inverse, cfg.dt, cfg.v_max),  // the controller's tick and V_max
         pid_(cfg.gains, cfg.dt),
         T_wire_(inverse_.thermal().T_a),  // the true ambient, converted once
@@ -267,7 +263,9 @@ class Controller {
     return inverse_.step(ref, future->ahead, future->peak, lead);
   }
 
-  ControllerConfig cfg_;
+  // The tick, s (the PID's gains per tick; the rest of the config lives in what it built, not
+  // twice in RAM).
+  double dt_;
   // Eq 12 and the wire's tick are the inverse model's (the same parameters, effects and dt):
   // one copy in RAM.
   InverseModel<T> inverse_;
