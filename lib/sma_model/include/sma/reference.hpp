@@ -33,10 +33,11 @@ struct RefShape {
 };
 
 struct Reference : RefShape {
-  // Trajectory (all zero by default).
+  // Trajectory (all zero by default). (The count before the points: on the AVR a load reaches
+  // 63 bytes past the reference's address.)
+  uint8_t n_points = 0;
   double point_t[kMaxPoints] = {};
   double point_mm[kMaxPoints] = {};
-  uint8_t n_points = 0;
 
   static Reference multi_step() {
     Reference r;
