@@ -181,8 +181,8 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     // The console's state and the Zeroed members are declared one after the other (increasing
     // addresses): one memset from the first to the end of the last (AVR: one loop instead of
     // five); initial_state() then writes the state's non-zero defaults.
-    memset(static_cast<void*>(&state_), 0,
-           static_cast<size_t>(reinterpret_cast<char*>(&v_ + 1) - reinterpret_cast<char*>(&state_)));
+    memset(static_cast<void*>(&v_), 0,
+           static_cast<size_t>(reinterpret_cast<char*>(&live_ + 1) - reinterpret_cast<char*>(&v_)));
     initial_safety(&safety_.x);
     initial_state(&state_.s);
 #if SMA_CONSOLE_PREVIEW
@@ -830,15 +830,6 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     }
   }
 
-  storage::Store<Hw> store_;  // also the board's outputs (Hw)
-  ModelStore models_;
-  GenStore gen_;
-  SafetyStore safety_;
-  // From state_ to v_: zeroed by the constructor (one memset; keep them together).
-  StateStore state_;
-  Zeroed<console::LineBuffer> line_;
-  Zeroed<console::Reply> reply_;
-  Zeroed<console::Live> live_;
   // The board's scalars, all zero at boot (Zeroed: one memset). g_mm_ is set by construct().
   struct Scalars {
     LineStatus waiting_;     // Pending
@@ -858,7 +849,21 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   };
   // (The row slot after the scalars, zeroed with them: none on a board without the preview.)
   struct Vars : Scalars, detail::RowSlot<kPreview>, detail::FutureSlot<T, kLead> {};
+  // Member order: AVR loads and stores reach 63 bytes past a pointer (ldd/std), farther fields
+  // cost an address computation at each access. The fields the console and the tick read most
+  // come first (the store, the scalars, then the state, whose hot settings lead it), the models
+  // and the generator last (their own functions reach them through a pointer of their own):
+  // measured -218 B of flash on the float image, -206 B on the Q16.16 one.
+  storage::Store<Hw> store_;  // also the board's outputs (Hw)
+  // From v_ to live_: zeroed by the constructor (one memset; keep them together).
   Zeroed<Vars> v_;
+  StateStore state_;
+  Zeroed<console::LineBuffer> line_;
+  Zeroed<console::Reply> reply_;
+  Zeroed<console::Live> live_;
+  SafetyStore safety_;
+  ModelStore models_;
+  GenStore gen_;
 };
 
 }  // namespace sma

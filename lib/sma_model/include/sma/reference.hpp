@@ -33,10 +33,11 @@ struct RefShape {
 };
 
 struct Reference : RefShape {
-  // Trajectory (all zero by default).
+  // Trajectory (all zero by default). (The count before the points: on the AVR a load reaches
+  // 63 bytes past the reference's address.)
+  uint8_t n_points = 0;
   double point_t[kMaxPoints] = {};
   double point_mm[kMaxPoints] = {};
-  uint8_t n_points = 0;
 
   static Reference multi_step() {
     Reference r;
@@ -181,11 +182,13 @@ class ReferenceGen {
     return lo_ + span_ * cos_ramp(from_q31<T>(x31));
   }
 
-  Reference r_;
+  // (The scalars before the reference: on the AVR a load reaches 63 bytes past the generator's
+  // address.)
   T lo_, span_;
   // The tick multiplies: a division costs ~500 AVR cycles of the control section.
   double inv_step_s_, inv_period_s_;
   uint32_t turns_per_tick_;  // the sine's phase per tick of at_tick(), Q0.32 turns
+  Reference r_;
 };
 
 }  // namespace sma

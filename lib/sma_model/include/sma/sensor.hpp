@@ -31,15 +31,15 @@ class SensorPredictor {
       : SensorPredictor(curves, p, fx, dt, from_double<T>(fx.ambient_C(p.T_amb))) {}
   // With the true ambient T_amb + ambient offset as the scalar (the controller's thermal model has it).
   SensorPredictor(const PhaseCurves<T>& curves, const Params& p, const Effects& fx, double dt, T T_amb_true)
-      : walker_(curves, T_amb_true, T(0)),
-        mech_(p, fx),
-        inv_gain_(reciprocal_as<T>(fx.sensor_gain)),
+      : inv_gain_(reciprocal_as<T>(fx.sensor_gain)),
         offset_(from_field<T>(fx.sensor_offset_mm)),
         a_(low_pass_gain_as<T>(dt, fx.sensor_lag_s + fx.sensor_delay_s + 1e-9)),
         path_(fx.sensor_lag_s + fx.sensor_delay_s > 0.0             ? Path::Predicted
               : fx.sensor_gain != 1.0 || fx.sensor_offset_mm != 0.0 ? Path::Calibrated
                                                                     : Path::Raw),
-        y_s_(T(0)) {}
+        y_s_(T(0)),
+        walker_(curves, T_amb_true, T(0)),
+        mech_(p, fx) {}
 
   // Restart from a wire at rest at T0 with fraction eps0 (a mode change).
   void reset(T T0, T eps0) {
@@ -61,12 +61,13 @@ class SensorPredictor {
   bool dynamic() const { return path_ == Path::Predicted; }
 
  private:
-  Hysteresis<T> walker_;
-  Mechanics<T> mech_;
+  // (The scalars first: on the AVR a load reaches 63 bytes past the predictor's address.)
   T inv_gain_, offset_, a_;
   // What correct() has to do: nothing, the calibration, or the calibration and the predictor.
   enum class Path : uint8_t { Raw, Calibrated, Predicted } path_;
   T y_s_;
+  Hysteresis<T> walker_;
+  Mechanics<T> mech_;
 };
 
 }  // namespace sma

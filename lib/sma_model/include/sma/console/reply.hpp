@@ -11,8 +11,9 @@ namespace console {
 
 // ---- a small bounded text buffer ---------------------------------------------------------------
 struct Reply {
-  char text[kReplyMax];
+  // (len before text: on the AVR a load reaches 63 bytes past the reply's address.)
   uint8_t len = 0;
+  char text[kReplyMax];
   Reply() { text[0] = 0; }
   // (Out of line: one copy for its callers instead of one each, flash on the Uno.)
   __attribute__((noinline)) void clear() {

@@ -75,6 +75,8 @@ struct Limits {
 
 // What the console controls but the trajectory (State): with trajectory_shape(), the part with
 // non-zero defaults, constants the board copies from flash (the points it only zeroes).
+// (The fields the board reads most come first: on the AVR they then sit within a load's 63-byte
+// reach of the board's address, sma/board.hpp's member order; -86 B of flash on the float image.)
 struct Settings {
   Mode mode = Mode::FeedforwardPid;  // selected controller (never Off; `stop` clears heat)
 #if SMA_CONSOLE_PREVIEW
@@ -85,7 +87,13 @@ struct Settings {
   static constexpr double cool_weight = 1.0;
 #endif
   bool heat = false;                 // heater allowed: false at boot and after stop or a trip
+  bool tele = false;
+  bool plot = false;  // telemetry as Teleplot lines (tele plot) instead of rig-log rows (tele on)
+  bool training = false;  // the training signal is playing (train), open loop
+  RefKind run_kind = RefKind::Constant;  // the reference being run (reference())
+  uint16_t run = 0;  // incremented at every (re)start of a reference: restart its clock
   double volt = 0.0;                 // open-loop voltage
+  double pos_mm = 0.0;                    // its setpoint if constant
   PidGains gains_pid = kGainsPid;
   PidGains gains_ffpid = kGainsFfpid;
   double tlim_C = 110.0;
@@ -97,12 +105,6 @@ struct Settings {
 #else
   static constexpr double lead = 0.0;
 #endif
-  bool tele = false;
-  bool plot = false;  // telemetry as Teleplot lines (tele plot) instead of rig-log rows (tele on)
-  RefKind run_kind = RefKind::Constant;  // the reference being run (reference())
-  double pos_mm = 0.0;                    // its setpoint if constant
-  uint16_t run = 0;  // incremented at every (re)start of a reference: restart its clock
-  bool training = false;  // the training signal is playing (train), open loop
 };
 
 // The shape part of State::traj: the paper's step and sine, the kind Trajectory.
