@@ -159,12 +159,13 @@ class Controller {
   }
   // `cfg_ok`: the config's check(), done by the caller (at compile time for CheckedConfig).
   Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg, bool cfg_ok)
-      : dt_(cfg.dt),
+      : valid_(cfg_ok && p.check() == nullptr && fx.check() == nullptr),
         inverse_(p, fx, cfg.inverse, cfg.dt, cfg.v_max),  // the controller's tick and V_max
         pid_(cfg.gains, cfg.dt),
-        T_wire_(inverse_.thermal().T_a),  // the true ambient, converted once
-        v_max_(inverse_.v_max()),  // cfg.v_max, converted once
-        valid_(cfg_ok && p.check() == nullptr && fx.check() == nullptr) {}
+        dt_(cfg.dt) {
+    T_wire_ = inverse_.thermal().T_a;  // the true ambient, converted once
+    v_max_ = inverse_.v_max();         // cfg.v_max, converted once
+  }
 
   // The voltage that holds the estimated wire temperature (eq 17, dT/dt = 0), at the measured
   // fraction: the same resistance R(eps) the estimate uses (phase-dependent resistance).
@@ -263,13 +264,11 @@ class Controller {
     return inverse_.step(ref, future->ahead, future->peak, lead);
   }
 
-  // The tick, s (the PID's gains per tick; the rest of the config lives in what it built, not
-  // twice in RAM).
-  double dt_;
-  // Eq 12 and the wire's tick are the inverse model's (the same parameters, effects and dt):
-  // one copy in RAM.
-  InverseModel<T> inverse_;
-  Pid<T> pid_;
+  // (The tick's scalars before the models: the AVR's loads reach 63 bytes past an object's
+  // address.)
+  Mode mode_ = Mode::Off;
+  bool hold_ready_ = false;
+  bool valid_;
   T T_wire_;
   T eps_meas_ = T(0);  // austenite fraction of the measurements, low-passed (kFractionFilter)
   // Its low-pass gain per tick: 1/16, a time constant of 0.16 s at the board's 100 Hz (against
@@ -278,11 +277,15 @@ class Controller {
   // memory (sensor.hpp) would open a minor loop at every tick.
   static constexpr double kFractionFilter = 1.0 / 16.0;
   T hold_ = T(0);      // thermal_hold() computed between ticks (prepare_next_tick)
-  bool hold_ready_ = false;
   T v_max_;
-  bool valid_;
-  Mode mode_ = Mode::Off;
   T v_open_ = T(0), v_ = T(0), v1_ = T(0), v2_ = T(0);
+  // Eq 12 and the wire's tick are the inverse model's (the same parameters, effects and dt):
+  // one copy in RAM.
+  InverseModel<T> inverse_;
+  Pid<T> pid_;
+  // The tick, s (the PID's gains per tick; the rest of the config lives in what it built, not
+  // twice in RAM).
+  double dt_;
 };
 
 }  // namespace sma
