@@ -113,6 +113,9 @@ class InverseModel {
     advance_model();  // the last tick's, where the caller did not run it between ticks
     if (!is_finite(u)) u = u_prev_;  // hold the last reference on NaN
     u_prev_ = u;
+    // Eq 14 at ambient, once: the branch decision (on_rise) and eq 15 or 16 read the same
+    // fraction (one multiplication call fewer, flash on the Uno).
+    const T e_u = mech_.fraction(u);
     // Branch = sign of du/dt (eq 14), decided against the last extreme of the reference rather
     // than tick to tick: a per-tick difference near a turning point is below the resolution
     // of a fixed-point scalar and would flip on rounding. With the known future the branch does
@@ -122,7 +125,7 @@ class InverseModel {
       // A rising reference that the rise still reaches (above its end, below its top) stays
       // on the cooling branch: it is followed up the rise.
       u_extreme_ = u;
-      if (!(peak_rule && !heating_ && on_rise(mech_.fraction(u)))) heating_ = !heating_;
+      if (!(peak_rule && !heating_ && on_rise(e_u))) heating_ = !heating_;
     }
     // The peak rule: only while the reference still climbs towards the peak (a hold is not a
     // peak) and the present heating transformed (a rise exists: its top above eps).
@@ -138,7 +141,7 @@ class InverseModel {
     const bool expands = kThermalExpansion && mech_.expands;
     // The desired temperature T_d so far: where the memory walked to.
     const T T_d = memory_.temperature();
-    T e = mech_.fraction(u);  // eq 14 at ambient
+    T e = e_u;  // eq 14 at ambient
     T T_new;
     // The memory walks the same branch from the same fraction e, so where T_new is the branch
     // at e (not held), e is its fraction there: it gets it instead of evaluating the curve again.
@@ -257,13 +260,13 @@ class InverseModel {
 
   // (The tick's scalars first, the models after them: the AVR's loads reach 63 bytes past an
   // object's address, flash on the Uno.)
+  bool heating_;
+  bool model_pending_;  // T_m_ has not had the last step's tick yet (advance_model)
+  bool riding_;         // the last step's cooling rode the rise (riding())
   T v_max_;
   T inv_dt_, alpha_, inv_tau_, inv_track_, deadband_;
   T T_f_, T_m_, eps_f_, u_prev_, u_extreme_;
   T v1_, d_eps_;        // the last step's V1 and change of eps_f: the model wire's pending tick
-  bool heating_;
-  bool model_pending_;  // T_m_ has not had the last step's tick yet (advance_model)
-  bool riding_;         // the last step's cooling rode the rise (riding())
   PhaseCurves<T> curves_;
   Thermal<T> thermal_;
   Mechanics<T> mech_;
