@@ -121,7 +121,9 @@ class Controller {
   // model's effects, WireStep): what the safety limit and the PID's branch limits watch.
   T step(T ref, T measured) { return step_<false>(ref, measured, nullptr, false); }
   // The same with the known future (LeadConfig; ReferenceGen::lookahead) where `lead`.
-  T step(T ref, T measured, const Lookahead<T>& future, bool lead) { return step_<true>(ref, measured, &future, lead); }
+  // (Out of line: inside it the controller's and the inverse's scalars are within the AVR's
+  // 63-byte load reach of the controller's address, not hundreds of bytes into a board's.)
+  __attribute__((noinline)) T step(T ref, T measured, const Lookahead<T>& future, bool lead) { return step_<true>(ref, measured, &future, lead); }
 
   // Between ticks, after the output is written: the feedforward's model wire and the loop of a
   // possible reversal (InverseModel::advance_model, prepare_reversal), work that the next tick
