@@ -56,12 +56,12 @@ class InverseModel {
   // With C_th and G computed once for the thermal model and its wire step.
   InverseModel(const Params& p, const Effects& fx, const InverseConfig& cfg, double dt, const double& v_max,
                double C_th, double G_th)
-      : v_max_(from_field<T>(v_max)),
+      : deadband_(from_field<T>(cfg.deadband_mm)),
+        v_max_(from_field<T>(v_max)),
         inv_dt_(reciprocal_as<T>(dt)),
         alpha_(low_pass_gain_as<T>(dt, cfg.rate_filter_s)),
         inv_tau_(reciprocal_as<T>(cfg.rate_filter_s)),
         inv_track_(reciprocal_as<T>(cfg.track_s)),
-        deadband_(from_field<T>(cfg.deadband_mm)),
         curves_(p),
         thermal_(p, fx, C_th, G_th),
         mech_(p, fx),
@@ -263,10 +263,11 @@ class InverseModel {
   bool heating_;
   bool model_pending_;  // T_m_ has not had the last step's tick yet (advance_model)
   bool riding_;         // the last step's cooling rode the rise (riding())
+  T u_extreme_, u_prev_, deadband_;
+  T T_f_, T_m_, eps_f_;
+  T v1_, d_eps_;  // the last step's V1 and change of eps_f: the model wire's pending tick
   T v_max_;
-  T inv_dt_, alpha_, inv_tau_, inv_track_, deadband_;
-  T T_f_, T_m_, eps_f_, u_prev_, u_extreme_;
-  T v1_, d_eps_;        // the last step's V1 and change of eps_f: the model wire's pending tick
+  T inv_dt_, alpha_, inv_tau_, inv_track_;
   PhaseCurves<T> curves_;
   Thermal<T> thermal_;
   Mechanics<T> mech_;
