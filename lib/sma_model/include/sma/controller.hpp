@@ -251,8 +251,8 @@ class Controller {
   // flat stage (eq 4) while it heats, and a PID on the falling reference would hold its
   // temperature at V_hold, the floor of its heating, until the reference came back up. On a
   // rising reference the extreme is the reference itself.
-  // (Out of line: the PID's call stays one, flash on the Uno.)
-  __attribute__((noinline)) T hold_target(T ref, T peak, bool lead) const {
+  // (Inline: the step with the known future, its only caller, is out of line itself.)
+  T hold_target(T ref, T peak, bool lead) const {
     if (!lead || !inverse_.heating()) return ref;
     if (above(peak, ref)) return inverse_.extreme();
     return clamp(inverse_.heating_position(), T(0), ref);  // (min(ref, position): a position is >= 0)
