@@ -123,7 +123,7 @@ class ReferenceGen {
     Lookahead<T> f;
     uint32_t at = k;
     for (uint8_t i = 0;; ++i) {
-      const T r = sample(at, dt);
+      const T r = at_tick(at, dt);
       if (i == 0) {  // now
         f.now = f.ahead = f.peak = r;
         if (!future) break;
@@ -141,10 +141,6 @@ class ReferenceGen {
     }
     return f;
   }
-
-  // at_tick for the lookahead's loop, out of line: the loop's live values and the reference's
-  // evaluation do not compete for registers (flash on the Uno).
-  __attribute__((noinline)) T sample(uint32_t k, double dt) const { return at_tick(k, dt); }
 
   // Reference at t seconds (t >= 0).
   T at(double t) const {
