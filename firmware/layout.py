@@ -16,16 +16,18 @@ soft-float and its other code, libgcc): between members they call and jump with 
 their RJMP/RCALL/branches stay inside a member (the libraries' relocations). Sections joined by
 such a short branch all the same (none today) move together, in their first link's order.
 
-The count it maximises is the second link's: the relaxation's fix point (a CALL made short moves
-everything after it by 2 bytes, which brings others into reach), replayed on the first link's
-addresses; a RET after a jump, which the relaxation deletes, is deleted here too.
+The search (firmware/layout_anneal.cpp, a host program the build compiles first: simulated
+annealing, many starts, the best kept) maximises the second link's calls in reach. Its exact
+measure is the relaxation's fix point (a CALL made short moves everything after it by 2 bytes,
+which brings others into reach), replayed on the first link's addresses; a RET after a jump,
+which the relaxation deletes, is deleted too. This script replays the same relaxation on the
+order it returns and keeps it only when the two agree (otherwise: the first link's order, bytes
+lost, never correctness).
 
 usage: layout.py --map first.map --elf first.elf --objdump avr-objdump --ld avr-ld
-                 --emulation avr5 -o order.ld
+                 --emulation avr5 --anneal layout_anneal [--steps N --starts N] -o order.ld
 """
 import argparse
-import math
-import random
 import re
 import subprocess
 import sys
@@ -290,79 +292,34 @@ class Layout:
                 return R, size, site, tgt
             R = new
 
-    def model(self, order):
-        """A fast score for the search, and the exact .text size of `order`.
 
-        The score takes the sizes and call-site offsets of `order` relaxed as fixed: the
-        calls in reach, plus half a call for each one out of reach, less the further it is
-        (a smoother landscape for the annealing, which then finds more calls in reach)."""
-        R, size, site, tgt = self.relax(order)
-        o = np.array(order)
-        pos = np.empty(self.n, dtype=np.int64)
-        pos[o] = np.cumsum(size[o]) - size[o]
-        c = self.cross
-        cu, tu = self.cu[c], self.tu[c]
-        site_off, tgt_off = (site - pos[self.cu])[c], (tgt - pos[self.tu])[c]
-
-        def score(order_):
-            oo = np.array(order_)
-            p = np.empty(self.n, dtype=np.int64)
-            p[oo] = np.cumsum(size[oo]) - size[oo]
-            g = p[tu] + tgt_off - p[cu] - site_off
-            # relaxed, the displacement g - 2 lies in [-4096, 4094]
-            out = np.maximum(np.maximum(-4094 - g, g - 4096), 0)
-            return float(np.count_nonzero(out == 0)) + 0.5 * float(np.exp(-out[out > 0] / 300.0).sum())
-        return score, int(size.sum())
+def problem_text(lay, order):
+    """The search problem as firmware/layout_anneal.cpp reads it (its header comment)."""
+    rows = [f'{lay.n} {lay.E} {len(order)}']
+    for arr in (lay.raw_eff, lay.end_ret.astype(int), lay.local.astype(int), lay.obj_id, lay.cu,
+                lay.co_fix, lay.tu, lay.to_fix, lay.tidx, lay.gstart, lay.gend, order):
+        rows.append(' '.join(str(int(x)) for x in arr))
+    return '\n'.join(rows) + '\n'
 
 
-def anneal(lay, order, steps, seed):
-    """Annealing from `order` (a fixed seed: the same first link gives the same order): two
-    units swapped, or a run of 1..12 units moved elsewhere (half the time next to a unit the
-    first one calls or is called by), a worse order accepted with a probability that falls; the
-    model re-measured every 1000 steps, the smallest exact size seen kept."""
-    rng = random.Random(seed)
-    m = len(order)
-    partners = [[] for _ in range(lay.n)]
-    for a, b in zip(lay.cu[lay.cross], lay.tu[lay.cross]):
-        partners[a].append(int(b))
-        partners[b].append(int(a))
-    cur_order = best_order = order
-    best = None
-    t0, t1 = 3.0, 0.05
-    for step in range(steps + 1):
-        if step % 1000 == 0 or step == steps:
-            score, size = lay.model(cur_order)
-            if best is None or size < best:
-                best, best_order = size, cur_order
-            cur = score(cur_order)
-            if step == steps:
-                break
-        temp = t0 * (t1 / t0) ** (step / steps)
-        o = cur_order[:]
-        i = rng.randrange(1, m - 1)  # unit 0 (the fixed head) and unit m-1 (the tail) stay
-        if rng.random() < 0.2:
-            j = rng.randrange(1, m - 1)
-            o[i], o[j] = o[j], o[i]
-        else:
-            seg = o[i:min(i + rng.randint(1, 12), m - 1)]
-            del o[i:i + len(seg)]
-            if rng.random() < 0.5 and partners[seg[0]]:
-                v = rng.choice(partners[seg[0]])
-                j = o.index(v) if v in o else rng.randrange(1, len(o))
-                j = min(max(1, j + rng.randint(-2, 3)), len(o) - 1)
-            else:
-                j = rng.randrange(1, len(o))
-            o[j:j] = seg
-        s = score(o)
-        if s >= cur or rng.random() < math.exp((s - cur) / temp):
-            cur, cur_order = s, o
-    return best, best_order
-
-
-def search(lay, order, steps, starts):
-    """The best of several annealing runs (the landscape has many local optima: +-25 B between
-    seeds)."""
-    return min(anneal(lay, order, steps, 12 + k) for k in range(starts))[1]
+def search(lay, order, exe, steps, starts):
+    """The order firmware/layout_anneal.cpp finds, or None (it failed, or its order's size is not
+    the one this script's replay gives: a disagreement between the two replays)."""
+    try:
+        r = subprocess.run([exe, str(steps), str(starts), '12'], input=problem_text(lay, order),
+                           capture_output=True, text=True, check=True, timeout=600)
+        lines = r.stdout.split('\n')
+        found, size = [int(x) for x in lines[0].split()], int(lines[1])
+    except (OSError, subprocess.SubprocessError, ValueError, IndexError) as e:
+        print(f'layout.py: {exe} failed ({e})')
+        return None
+    if sorted(found) != sorted(order) or found[0] != order[0] or found[-1] != order[-1]:
+        print(f'layout.py: {exe} returned no permutation of the units')
+        return None
+    if exact(lay, found)[1] != size:
+        print(f'layout.py: {exe} says {size} B, the replay here {exact(lay, found)[1]} B')
+        return None
+    return found
 
 
 def exact(lay, order):
@@ -377,8 +334,12 @@ def main():
     ap.add_argument('--objdump', default='avr-objdump')
     ap.add_argument('--ld', default='avr-ld')
     ap.add_argument('--emulation', default='avr5')
-    ap.add_argument('--steps', type=int, default=100000, help='annealing steps per start')
-    ap.add_argument('--starts', type=int, default=6, help='annealing runs, the best kept')
+    ap.add_argument('--anneal', required=True, help='firmware/layout_anneal.cpp built: the search')
+    ap.add_argument('--steps', type=int, default=200000, help='annealing steps per start')
+    ap.add_argument('--starts', type=int, default=24, help='annealing runs, the best kept')
+    ap.add_argument('--check', action='store_true',
+                    help='exit 1 unless the search ran, agreed with the replay here and found an '
+                         'order no larger than the first link\'s (CTest avr_layout_anneal)')
     ap.add_argument('-o', '--out', required=True)
     a = ap.parse_args()
 
@@ -402,14 +363,22 @@ def main():
     insns, symbols = disassembly(a.elf, a.objdump)
     lay = Layout(secs, text_end, globals_, insns, symbols)
     first = [0] + list(range(2, lay.n)) + [1]
-    order = search(lay, first, a.steps, a.starts)
+    order = search(lay, first, a.anneal, a.steps, a.starts)
+    if a.check:
+        ok = order is not None and exact(lay, order)[1] <= exact(lay, first)[1]
+        print('layout.py --check: %s' % ('the search agrees with the replay here, %d -> %d B'
+                                          % (exact(lay, first)[1], exact(lay, order)[1]) if ok else 'FAILED'))
+        sys.exit(0 if ok else 1)
+    if order is None:  # the first link's order: bytes lost (the budgets say so), nothing wrong
+        print('layout.py: no search: the first link\'s order')
+        order = first
     (before, size_before), (after, size_after) = exact(lay, first), exact(lay, order)
     total = int(np.count_nonzero(lay.cross))
 
     listed = ''.join(f'    {p}\n' for k in order[1:-1] for p in lay.patterns[k])
     script = script.replace(anchor, anchor + listed, 1)
     note = (f'calls and jumps within reach {before} -> {after} of {total} ({lay.n - 2} units), '
-            f'.text {size_before} -> {size_after} B')
+            f'.text {size_before} -> {size_after} B; {a.starts} x {a.steps} annealing steps')
     with open(a.out, 'w') as f:
         f.write('/* Generated by firmware/layout.py from the first link: functions near their callees.\n'
                 f'   {note} (the relaxation replayed). */\n')

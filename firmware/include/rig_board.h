@@ -27,8 +27,7 @@
 #define SMA_CONSOLE_PREVIEW RIG_FEATURE_PREVIEW
 #endif
 // Inverse + PID with the known future (sma::LeadConfig: `mode ffpid` on step, sine and traj,
-// `lead F`): in every image but the Uno's Q16.16 one (42 B over the flash budget with it,
-// docs/control.md section 35: built with RIG_FEATURE_LEAD 0).
+// `lead F`): in every image, the Uno's float and Q16.16 ones included (docs/control.md section 36).
 #ifndef RIG_FEATURE_LEAD
 #define RIG_FEATURE_LEAD 1
 #endif

@@ -1,7 +1,6 @@
 #!/usr/bin/env python3
-"""Firmware in the loop: inverse + PID with the known future (sma::LeadConfig: the Uno's float image,
-the default of `mode ffpid` on step, sine and traj; or the Q16.16 image built with
-RIG_FEATURE_LEAD=1) against PID alone and the paper's inverse + PID (`lead 0`) on the same ELF,
+"""Firmware in the loop: inverse + PID with the known future (sma::LeadConfig: in both Uno images,
+float and Q16.16, the default of `mode ffpid` on step, sine and traj) against PID alone and the paper's inverse + PID (`lead 0`) on the same ELF,
 in the virtual rig (2 um noise).
 
     fil_lead.py --vrig BUILD/tools/vrig/vrig --elf BUILD/firmware/sma_firmware.elf \\

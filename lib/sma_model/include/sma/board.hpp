@@ -169,8 +169,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   static constexpr bool kPreview = detail::rig_preview<Rig>(0);
   static_assert(!kPreview || SMA_CONSOLE_PREVIEW, "the preview needs its console rows (SMA_CONSOLE_PREVIEW 1)");
   // Inverse + PID with the known future (Rig::lead(), LeadConfig): `mode ffpid` on a reference
-  // uses it, `lead F` sets its trade-off. In the Uno's float image; the Q16.16 image is built
-  // without it (its flash, docs/control.md section 31).
+  // uses it, `lead F` sets its trade-off. In both Uno images, float and Q16.16.
   static constexpr bool kLead = detail::rig_lead<Rig>(0);
   static_assert(!kLead || SMA_CONSOLE_LEAD, "the lead needs its console row (SMA_CONSOLE_LEAD 1)");
   typedef Controller<T> Ctl;

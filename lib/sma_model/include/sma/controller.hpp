@@ -188,7 +188,7 @@ class Controller {
     // flash, more than its ~0.6 k cycles of the tick are worth.)
     T d_eps = T(0);
     if (is_finite(measured)) {
-      d_eps = (inverse_.mechanics().fraction(measured, T_wire_) - eps_meas_) * from_double<T>(kFractionFilter);
+      d_eps = (inverse_.mechanics().fraction(measured, T_wire_) - eps_meas_) * T(kFractionFilter);  // (T(x): folded at compile time)
       eps_meas_ = eps_meas_ + d_eps;
     }
     v_ = compute<kLead>(ref, measured, future, kLead && lead);
@@ -255,7 +255,7 @@ class Controller {
   T hold_target(T ref, T peak, bool lead) const {
     if (!lead || !inverse_.heating()) return ref;
     if (above(peak, ref)) return inverse_.extreme();
-    return clamp(inverse_.heating_position(), T(0), ref);  // (min(ref, position): a position is >= 0)
+    return min(inverse_.heating_position(), ref);  // (g eps >= 0: eq 12 at ambient, eps in 0..1)
   }
 
   // V1: the inverse model of the reference, with the known future where `lead`: the future's
