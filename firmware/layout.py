@@ -339,7 +339,8 @@ def main():
     ap.add_argument('--starts', type=int, default=24, help='annealing runs, the best kept')
     ap.add_argument('--check', action='store_true',
                     help='exit 1 unless the search ran, agreed with the replay here and found an '
-                         'order no larger than the first link\'s (CTest avr_layout_anneal)')
+                         'order no larger than the first link\'s, and refused two malformed problems '
+                         '(CTest avr_layout_anneal)')
     ap.add_argument('-o', '--out', required=True)
     a = ap.parse_args()
 
@@ -366,6 +367,13 @@ def main():
     order = search(lay, first, a.anneal, a.steps, a.starts)
     if a.check:
         ok = order is not None and exact(lay, order)[1] <= exact(lay, first)[1]
+        # A problem cut short and an order with a unit twice are refused (exit 2, no order).
+        text = problem_text(lay, first)
+        twice = first[:-1] + [first[1]]
+        for bad in (text[:len(text) // 2], problem_text(lay, twice)):
+            r = subprocess.run([a.anneal, '10', '1', '12'], input=bad, capture_output=True, text=True)
+            ok = ok and r.returncode == 2 and r.stdout == ''
+
         print('layout.py --check: %s' % ('the search agrees with the replay here, %d -> %d B'
                                           % (exact(lay, first)[1], exact(lay, order)[1]) if ok else 'FAILED'))
         sys.exit(0 if ok else 1)

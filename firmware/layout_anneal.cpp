@@ -241,6 +241,21 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "layout_anneal: malformed problem on stdin\n");
     return 2;
   }
+  // Every index within its array, the order a permutation of the units: an out-of-range index
+  // would read past an array, a repeated unit would lose one.
+  bool ok = true;
+  for (int e = 0; e < p.E; ++e)
+    ok = ok && p.cu[e] >= 0 && p.cu[e] < p.n && p.tu[e] >= 0 && p.tu[e] < p.n && p.tidx[e] >= 0 && p.tidx[e] <= p.E;
+  std::vector<char> seen(p.n, 0);
+  for (int u = 0; u < p.n; ++u) {
+    ok = ok && p.gstart[u] >= 0 && p.gstart[u] <= p.gend[u] && p.gend[u] <= p.E && p.obj_id[u] >= 0;
+    ok = ok && order[u] >= 0 && order[u] < p.n && !seen[order[u]];
+    if (ok) seen[order[u]] = 1;
+  }
+  if (!ok) {
+    std::fprintf(stderr, "layout_anneal: an index out of range, or an order that is not a permutation\n");
+    return 2;
+  }
   std::vector<std::vector<int>> partners(p.n);
   for (int e = 0; e < p.E; ++e) {
     if (p.cu[e] == p.tu[e]) continue;
