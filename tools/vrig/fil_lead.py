@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Firmware in the loop: inverse + PID with the known future (sma::LeadConfig: in both Uno images,
-float and Q16.16, the default of `mode ffpid` on step, sine and traj) against PID alone and the paper's inverse + PID (`lead 0`) on the same ELF,
-in the virtual rig (2 um noise).
+float and Q16.16, the default of `mode ffpid` on step, sine and traj) against PID alone and the
+paper's inverse + PID (`lead 0`) on the same ELF, in the virtual rig (2 um noise).
 
     fil_lead.py --vrig BUILD/tools/vrig/vrig --elf BUILD/firmware/sma_firmware.elf \\
                 --metrics BUILD/tools/host/sma_metrics --out DIR

@@ -121,7 +121,7 @@ class ReferenceGen {
   // (One evaluation in the loop, flash on the Uno. Where T is a class, Q16.16, through sample(),
   // out of line: the loop's live values and the evaluation's 4-byte scalars no longer compete
   // for registers, -18 B of the Q16.16 image. A built-in float inlines at_tick: the Mega image's
-  // preview planning, which shares this code's layout, has ~2.5 k of its 160 k cycles left at its
+  // preview planning, which shares this code's layout, has ~1.9 k of its 160 k cycles left at its
   // worst tick, and the shifted layout of the out-of-line form cost it one tick; docs/control.md
   // section 36.)
   Lookahead<T> lookahead(uint32_t k, uint32_t lead_ticks, uint32_t sample_ticks, double dt, bool future = true) const {
