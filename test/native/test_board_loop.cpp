@@ -138,7 +138,7 @@ TEST(BoardLoop, TheLeadIsSentAsTheBoardsFactor) {
   EXPECT_EQ(lead_line(s), "lead 0");  // no lead: the paper's inverse + PID
   s.lead = sma::lead_for(s.reference.kind);
   EXPECT_EQ(lead_line(s), "lead 1");
-  s.lead.lead_s = 1.5;  // half of the sine's tuned 3 s
+  s.lead.lead_s = 0.5 * sma::lead_for(s.reference.kind).lead_s;  // half of the sine's
   EXPECT_EQ(lead_line(s), "lead 0.5");
   s.reference = sma::Reference::multi_step();
   s.lead.lead_s = 15.0;  // 1.5 x the steps' 10 s
@@ -146,7 +146,7 @@ TEST(BoardLoop, TheLeadIsSentAsTheBoardsFactor) {
   s.reference = sma::Reference::constant(0.4);  // no future: no line
   EXPECT_EQ(lead_line(s), "");
   s.reference = sma::Reference::sine();
-  s.lead.lead_s = 7.0;  // 2.33 x 3 s: beyond the console's 0..2
+  s.lead.lead_s = 7.0;  // 2.15 x 3.25 s: beyond the console's 0..2
   EXPECT_THROW(sma_host::board_commands(s), sma_host::Error);
   s.lead.lead_s = 3.0;
   s.lead.peak_window_s = 5.0;  // the board's window is the default one
