@@ -21,6 +21,7 @@ bound it says that it did not check. Writes DIR/fil_lead.json.
 import argparse
 import concurrent.futures
 import json
+import math
 import os
 import sys
 
@@ -44,7 +45,11 @@ def sine_bound(path):
         with open(path) as f:
             for b in json.load(f)["bounds"]:
                 if b["test"] == "sine" and b["condition"] == "rig-like":
-                    return b
+                    if all(isinstance(b.get(k), (int, float)) and math.isfinite(b[k]) and b[k] > 0
+                           for k in ("max_mm", "rms_mm")):
+                        return b
+                    print(f"optimal bound: {path}: the rig-like sine's max_mm and rms_mm must be numbers > 0")
+                    return None
         print(f"optimal bound: {path} has no rig-like sine")
     except (OSError, ValueError, KeyError, TypeError) as e:
         print(f"optimal bound: not read from {path} ({e.__class__.__name__}: {e}); the benchmarks write it")

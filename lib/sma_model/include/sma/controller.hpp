@@ -76,8 +76,7 @@ struct LeadConfig {
 // does): 10 s on the multi-step (tune_lead's, bench_tracking, docs/control.md section 31); 3.25 s
 // on the sine and a trajectory, one lead for both: the tuner's 4 s suits the sine, a user's
 // trajectory with a short hold before a long fall loses from 3.5 s on (its max error 0.52 ->
-// 0.72 mm; section 38);
-// none on a constant (it has no future).
+// 0.72 mm; section 38); none on a constant (it has no future).
 constexpr LeadConfig lead_for(RefKind k) {
   return LeadConfig{k == RefKind::MultiStep ? 10.0 : k == RefKind::Constant ? 0.0 : 3.25, LeadConfig().peak_window_s};
 }
