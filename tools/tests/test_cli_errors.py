@@ -123,6 +123,41 @@ def test_vrig_refuses_a_bad_speed(binaries):
         assert r.returncode == 2 and "--speed must be in (0, 1000]" in r.stderr, (bad, r.stderr)
 
 
+def test_vrig_refuses_an_unknown_plant_and_a_wire_plant_b_cannot_take(binaries, tmp_path):
+    import json
+    import os
+    import subprocess
+    vrig = os.path.join(os.path.dirname(os.path.dirname(binaries["sma_sim"])), "vrig", "vrig")
+    if not os.path.exists(vrig):
+        pytest.skip("no vrig in this build")
+    r = subprocess.run([vrig, "--native", "--plant", "c", "--duration", "1"], capture_output=True, text=True)
+    assert r.returncode == 2 and "--plant must be library, b or b-rpm, not 'c'" in r.stderr, r.stderr
+    two = tmp_path / "two_loops.json"
+    two.write_text(json.dumps({"loops": [{"T_i": 63.1, "T_ii": 61.2, "j": 0.16}, {"T_i": 68.5, "T_ii": 59.1, "j": 0.19}]}))
+    r = subprocess.run([vrig, "--native", "--plant", "b", "--params", str(two), "--duration", "1"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "3 minor loops" in r.stderr and "has 2" in r.stderr, r.stderr
+    # The same wire runs on the library's plant, and the paper's wire on plant B.
+    for args in (["--params", str(two)], ["--plant", "b"]):
+        r = subprocess.run([vrig, "--native", "--duration", "0.5", "--quiet"] + args, capture_output=True, text=True)
+        assert r.returncode == 0, (args, r.stderr)
+    # The switch reaches the wire: plant B's path under the same board and script differs from the
+    # library plant's (RK4, its own hysteresis code), but stays the same wire (within 0.05 mm).
+    script = tmp_path / "sine.txt"
+    script.write_text("0.0 tele on\n0.05 sine\n")
+    paths = {}
+    for plant in ("library", "b"):
+        truth = tmp_path / f"truth_{plant}.csv"
+        r = subprocess.run([vrig, "--native", "--plant", plant, "--script", str(script), "--duration", "30",
+                            "--truth", str(truth), "--quiet"], capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        paths[plant] = [float(line.split(",")[1]) for line in truth.read_text().splitlines()[1:]]
+    a, b = paths["library"], paths["b"]
+    assert len(a) == len(b) > 2000
+    gap = max(abs(x - y) for x, y in zip(a, b))
+    assert max(max(a), max(b)) > 0.3 and 1e-4 < gap < 0.05, gap
+
+
 def test_fit_passes_every_option_of_sma_fit_through(binaries, tmp_path):
     # An option only sma_fit declares reaches it (the CLI does not re-declare the helper's options),
     # and an unknown one is refused by sma_fit itself, named.

@@ -74,9 +74,10 @@ def lead_seconds(path, test):
     return r.get("lead_s") if r else None
 
 
-def run_vrig(vrig, elf, mode, command, duration, log, noise, cycles, gains=None, pre=(), mcu=None):
+def run_vrig(vrig, elf, mode, command, duration, log, noise, cycles, gains=None, pre=(), mcu=None, rig=()):
     """One run of the ELF in the virtual rig: telemetry on, `mode`, the `pre` commands (PID gains
-    when `gains`), then the reference `command`; the log and the cycle counts written."""
+    when `gains`), then the reference `command`; the log and the cycle counts written. `rig`: more
+    vrig options (e.g. --plant b)."""
     pre = (["gains %.6g %.6g %.6g" % gains] if gains else []) + list(pre)
     script = log + ".script"
     with open(script, "w") as f:
@@ -86,18 +87,18 @@ def run_vrig(vrig, elf, mode, command, duration, log, noise, cycles, gains=None,
         f.write(f"0.05 {command}\n")
     cmd = [vrig, elf] + (["--mcu", mcu] if mcu else []) + [
         "--script", script, "--duration", str(duration + 0.2), "--log", log,
-        "--noise-mm", str(noise), "--quiet", "--cycles-json", cycles]
+        "--noise-mm", str(noise), "--quiet", "--cycles-json", cycles] + list(rig)
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         sys.exit(f"vrig failed ({' '.join(cmd)}):\n{r.stderr[-2000:]}")
 
 
-def scored_run(a, test, command, duration, tag, elf, mode, pre=(), mcu=None):
+def scored_run(a, test, command, duration, tag, elf, mode, pre=(), mcu=None, rig=()):
     """run_vrig, then the whole-run metrics from the command on (sma_metrics) and the cycle
     counts: what the FIL comparisons (fil_preview, fil_lead) tabulate per run."""
     log = os.path.join(a.out, f"{test}_{tag}.csv")
     cyc = os.path.join(a.out, f"{test}_{tag}_cycles.json")
-    run_vrig(a.vrig, elf, mode, command, duration, log, 0.002, cyc, pre=pre, mcu=mcu)
+    run_vrig(a.vrig, elf, mode, command, duration, log, 0.002, cyc, pre=pre, mcu=mcu, rig=rig)
     d = read_log(log)
     start = float(d["t_s"][d["ref_mm"] > 0][0])  # the reference starts with the command
     m = metrics(a.metrics, log, test, start)

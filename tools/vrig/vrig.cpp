@@ -1,5 +1,6 @@
 // vrig: the virtual rig. Runs the firmware ELF, unchanged, on simavr's cycle-accurate ATmega328P
-// at 16 MHz and closes the loop through the library's simulated plant (sma::Plant):
+// at 16 MHz and closes the loop through a simulated wire: the library's plant (sma::Plant) or,
+// with --plant b, plant B, written apart from the library (rig_wire.hpp):
 //
 //   every 1 ms of simulated time:
 //     OCR1A / ICR1 / TCCR1A (data space) -> duty -> V = Vs sqrt(duty) -> plant.step(V, 1 ms)
@@ -27,6 +28,7 @@
 
 #include "rig_board.h"
 #include "sma_host/board_loop.hpp"
+#include "rig_wire.hpp"
 #include "sma_host/plant.hpp"
 #include "sma_host/progress.hpp"
 #include "sma_tools/params_json.hpp"
@@ -82,6 +84,7 @@ struct Options {
   std::vector<std::string> effect_args;  // --effect, applied after --params
   std::string eeprom;                   // --eeprom FILE: the AVR's EEPROM, loaded and saved
   std::string truth;                    // --truth FILE: t_s,true_mm of the plant every 10 ms
+  std::string plant = "library";        // --plant library | b | b-rpm
   double fault_at = -1.0, fault_mv = 5000.0;  // sensor loss injection
   double flood_from = -1.0, flood_to = -1.0;  // input flood
   bool wdrf = false;                          // start as after a watchdog reset
@@ -110,6 +113,11 @@ void usage() {
           "  --effect NAME.PARAM=V  hidden plant effect, vocabulary names, e.g.\n"
           "                      sensor_delay.delay_s=0.05, or the parameter alone: delay_s=0.05\n"
           "                      (after --params)\n"
+          "  --plant NAME        the simulated wire's code: library (default, sma::Plant), b (plant B,\n"
+          "                      written apart from the library from model.md: RK4, its own\n"
+          "                      hysteresis, a new loop at every reversal as model.md reads;\n"
+          "                      --params and --effect in its own terms) or b-rpm (plant B with\n"
+          "                      the library's return-point memory)\n"
           "  --truth FILE        the wire's true displacement (t_s,true_mm every 10 ms: no sensor\n"
           "                      effect, no noise), for tracking metrics under sensor effects\n"
           "  --eeprom FILE       the AVR's 1 KB EEPROM: read at start if FILE exists, written at\n"
@@ -277,7 +285,7 @@ struct Stats {
 };
 
 // Millivolts on the sensor pin for a displacement (the harness's: rig_config.h calibration, inverted).
-double sensor_mv(double mm) { return sma_host::BoardLoop<RigBoard, sma::Plant>::sensor_mv(mm); }
+double sensor_mv(double mm) { return sma_host::BoardLoop<RigBoard, vrig::RigWire>::sensor_mv(mm); }
 
 // Deterministic flood bytes: mostly printable garbage, some newlines, some binary.
 struct Flood {
@@ -371,7 +379,7 @@ struct StdinLines {
 struct Rig {
   Options opt;
   avr_t* avr = nullptr;
-  sma::Plant* plant = nullptr;
+  vrig::RigWire* plant = nullptr;
   FILE* truth = nullptr;  // --truth
   FILE* pass_trace = nullptr;  // --pass-trace: one line per plan pass
   FILE* tick_trace = nullptr;  // --tick-trace: one line per tick (which tick is the worst, and why)
@@ -706,7 +714,7 @@ int run_avr(Rig& rig) {
 // The same unit as firmware/src/main.cpp with the same rig constants (rig_board.h) and features
 // as the float image (RIG_FEATURE_*), driven by the host's one harness (sma_host/board_loop.hpp:
 // ADC samples every 1 ms, PWM counts back to volts, the EEPROM in RAM; --eeprom loads and saves it).
-typedef sma_host::BoardLoop<RigBoard, sma::Plant> NativeLoop;
+typedef sma_host::BoardLoop<RigBoard, vrig::RigWire> NativeLoop;
 
 bool native_eeprom_io(uint8_t* ee, const std::string& path, bool save) {
   if (save) {
@@ -790,6 +798,7 @@ int main(int argc, char** argv) {
     else if (a == "--params") o.params = val();
     else if (a == "--eeprom") o.eeprom = val();
     else if (a == "--truth") o.truth = val();
+    else if (a == "--plant") o.plant = val();
     else if (a == "--sensor-fault") {
       const char* s = val();
       o.fault_at = atof(s);
@@ -855,7 +864,8 @@ int main(int argc, char** argv) {
       fprintf(stderr, "vrig: cannot write %s\n", o.log.c_str());
       return 2;
     }
-    fprintf(rig.out.log, "# rig: vrig %s noise_mm=%g\n", o.native ? "native" : o.elf.c_str(), o.noise_mm);
+    fprintf(rig.out.log, "# rig: vrig %s noise_mm=%g plant=%s\n", o.native ? "native" : o.elf.c_str(), o.noise_mm,
+            o.plant.c_str());
   }
   if (!o.truth.empty() && !(rig.truth = open_out(o.truth, "t_s,true_mm"))) return 2;
   if (!o.pass_trace.empty() && !(rig.pass_trace = open_out(o.pass_trace, "# tick pass start_cycles length_cycles done")))
@@ -865,8 +875,21 @@ int main(int argc, char** argv) {
   ro.noise_mm = o.noise_mm;
   ro.v_supply = RIG_V_SUPPLY;
   ro.seed = o.seed;
-  static sma::Plant plant(wire, o.fx, ro);  // static: ~130 KB of sensor history
-  rig.plant = &plant;
+  std::unique_ptr<vrig::RigWire> plant;  // on the heap: ~130 KB of sensor history
+  if (o.plant == "library") {
+    plant.reset(new vrig::LibraryWire(wire, o.fx, ro));
+  } else if (o.plant == "b" || o.plant == "b-rpm") {
+    std::string problem;
+    plant = vrig::make_plant_b(wire, o.fx, o.plant == "b", o.noise_mm, kPlantDt, o.seed, problem);
+    if (!plant) {
+      fprintf(stderr, "vrig: %s\n", problem.c_str());
+      return 2;
+    }
+  } else {
+    fprintf(stderr, "vrig: --plant must be library, b or b-rpm, not '%s'\n", o.plant.c_str());
+    return 2;
+  }
+  rig.plant = plant.get();
   const int rc = o.native ? run_native(rig) : run_avr(rig);
   if (rig.out.log) fclose(rig.out.log);
   if (rig.truth) fclose(rig.truth);
