@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Firmware in the loop: a user's trajectory uploaded with `traj` to the Mega 2560 image (the preview
 its default controller) and run by that default and by `mode ffpid` (inverse + PID) on the same ELF,
-in the virtual rig (2 um noise).
+in the virtual rig (2 um noise). With --default lead the ELF is an Uno image, whose default on a
+`traj` is inverse + PID with the known future (the lead); PID alone runs beside it, printed.
 
     fil_excite.py --vrig BUILD/tools/vrig/vrig --elf BUILD/firmware/sma_firmware_mega.elf \\
                   --metrics BUILD/tools/host/sma_metrics \\
@@ -11,7 +12,7 @@ The trajectory is bench_tracking_excitations' random one (8 setpoints over the s
 2-15 s, jumps and ramps, small steps; fixed seed): its `traj` lines come from the benchmark
 (--traj-lines), so the two run the same points. Metrics of sma_metrics --test traj on the measured
 position, whole run (issue 13's set). Pass: the default controller's whole-run RMS not above
-inverse + PID's (`status` says which controller ran); on both, the heater's voltage within 0..V_max (2 V, eq 18) on every row; the run
+inverse + PID's (`status` says which mode ran); on both, the heater's voltage within 0..V_max (2 V, eq 18) on every row; the run
 ends on the trajectory's last point. Prints the table and writes DIR/fil_excite.json.
 """
 import argparse
@@ -28,10 +29,12 @@ V_MAX = 2.0  # rig_config.h RIG_V_MAX (eq 18)
 # (label, extra commands before the upload): the image's default, then the paper's inverse + PID
 # (`lead 0`: without the known future that `mode ffpid` adds on a reference).
 MODES = (("default (preview)", []), ("inverse + PID", ["mode ffpid", "lead 0"]))
+# The Uno images: the default is `mode ffpid` with the lead; PID alone beside it (printed).
+MODES_LEAD = (("default (lead)", []), ("inverse + PID", ["mode ffpid", "lead 0"]), ("PID alone", ["mode pid"]))
 
 
 def run(a, label, extra, lines, duration):
-    tag = "default" if not extra else "ffpid"
+    tag = "default" if not extra else "pid" if extra == ["mode pid"] else "ffpid"
     log = os.path.join(a.out, f"traj_{tag}.csv")
     script = log + ".script"
     cmds = ["tele on"] + extra + lines + ["status"]  # status: the controller the run is under
@@ -71,7 +74,10 @@ def main():
     ap.add_argument("--bench", required=True, help="bench_tracking_excitations (the trajectory's traj lines)")
     ap.add_argument("--out", required=True)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--default", choices=("preview", "lead"), default="preview",
+                    help="the image's default controller on a traj: preview (Mega) or lead (Uno)")
     a = ap.parse_args()
+    modes = MODES if a.default == "preview" else MODES_LEAD
     os.makedirs(a.out, exist_ok=True)
     lines = subprocess.run([a.bench, "--traj-lines"], capture_output=True, text=True, check=True).stdout.split("\n")
     lines = [l for l in lines if l.strip()]
@@ -79,15 +85,15 @@ def main():
     duration = points[-1][0] + 1.0  # the last point, then a second of its hold
     res = {}
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as pool:
-        for tag, r in pool.map(lambda m: run(a, m[0], m[1], lines, duration), MODES):
+        for tag, r in pool.map(lambda m: run(a, m[0], m[1], lines, duration), modes):
             res[tag] = r
 
     print(f"User trajectory ({len(points)} points, {points[-1][0]:.2f} s; measured position, whole run):\n")
     print("| controller | max mm | RMS mm | max rise | RMS rise | max fall | RMS fall | wrong-way after / before | "
           "SSE mm | time to 5 % s (mean / worst) | V min..max |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for (label, extra) in MODES:
-        r = res["default" if not extra else "ffpid"]
+    for (label, extra) in modes:
+        r = res["default" if not extra else "pid" if extra == ["mode pid"] else "ffpid"]
         print(f"| {label} | {r['max_mm']:.4f} | {r['rms_mm']:.4f} | {r['max_rise_mm']:.4f} | {r['rms_rise_mm']:.4f} | "
               f"{r['max_fall_mm']:.4f} | {r['rms_fall_mm']:.4f} | {r['wrong_way_mm']:.4f} / {r['wrong_way_before_mm']:.4f} | "
               f"{r['sse_mm']:.4f} | {r['settle_s']:.1f} / {r['settle_max_s']:.1f} | {r['v_min']:.3f}..{r['v_max']:.3f} |")
@@ -97,9 +103,10 @@ def main():
     p, q = res["default"], res["ffpid"]
     checks = [
         # The runs are the controllers they say: the image's default is the preview.
-        ("default: the board runs the preview", " preview " in p["status"]),
+        (f"default: the board runs {'the preview' if a.default == 'preview' else 'mode ffpid (the lead)'}",
+         f" {'preview' if a.default == 'preview' else 'ffpid'} " in p["status"]),
         ("mode ffpid: the board runs inverse + PID", " ffpid " in q["status"]),
-        ("the default (preview) whole-run RMS not above inverse + PID's", p["rms_mm"] <= q["rms_mm"]),
+        (f"the default ({a.default}) whole-run RMS not above inverse + PID's", p["rms_mm"] <= q["rms_mm"]),
         ("default: V within 0..V_max on every row", 0.0 <= p["v_min"] and p["v_max"] <= V_MAX + 1e-6),
         ("inverse + PID: V within 0..V_max on every row", 0.0 <= q["v_min"] and q["v_max"] <= V_MAX + 1e-6),
         # The run reached the trajectory's last point (the board's traj held after it).
