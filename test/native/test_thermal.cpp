@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <math.h>
 #include "sma_host/plant.hpp"
+#include "sma/fixed.hpp"
 #include "sma/thermal.hpp"
 
 namespace {
@@ -121,4 +122,39 @@ TEST(ExpNegCompact, MatchesDoubleExp) {
   EXPECT_TRUE(std::isnan(sma::exp_neg_compact(NAN)));
   EXPECT_NEAR(sma::exp_neg_compact(-2.0f), std::exp(2.0), 1e-5 * std::exp(2.0));
   EXPECT_EQ(sma::exp_neg_compact(0.0f), 1.0f);
+}
+
+// The controller's temperature estimate (WireStep, eq 1 over a tick) fed the voltage that eq 17
+// says holds its temperature (V_hold, the PID's floor on a hold) must stay there: a step whose
+// gain disagrees with V_hold walks the estimate, and the floor with it, tick after tick. In
+// Q16.16 an a rounded on its own (1 - a ~0.0024, ~160 raw steps) made it walk 2 K in 4 min.
+template <class T>
+double hold_walk_K(const sma::Params& p, double T0, int ticks) {
+  const sma::Effects fx;
+  const double C = p.heat_capacity(), G = p.conductance();
+  const sma::Thermal<T> th(p, fx, C, G);
+  const sma::WireStep<T> step(th, p, 0.01, C, G);
+  T Tw = sma::from_double<T>(T0);
+  for (int k = 0; k < ticks; ++k) Tw = step(Tw, th.hold_voltage(Tw));
+  return sma::to_double(Tw) - T0;
+}
+
+TEST(Thermal, TheEstimateHeldAtItsOwnVHoldStaysPutInEveryScalar) {
+  struct Wire {
+    double h, R, d0;
+  };
+  for (const Wire& w : {Wire{165, 1.0, 0.5e-3}, Wire{120, 1.0, 0.5e-3}, Wire{219, 1.0, 0.5e-3}, Wire{300, 1.0, 0.5e-3},
+                        Wire{165, 1.37, 0.5e-3}, Wire{165, 1.0, 0.25e-3}, Wire{165, 0.3, 1.0e-3}}) {
+    sma::Params p;
+    p.h = w.h;
+    p.R = w.R;
+    p.d0 = w.d0;
+    for (double T0 : {35.0, 62.0, 85.0}) {
+      const int ten_minutes = 60000;
+      EXPECT_NEAR(hold_walk_K<double>(p, T0, ten_minutes), 0.0, 1e-6) << "h " << w.h << " R " << w.R << " T " << T0;
+      EXPECT_NEAR(hold_walk_K<float>(p, T0, ten_minutes), 0.0, 0.05) << "h " << w.h << " R " << w.R << " T " << T0;
+      EXPECT_NEAR(hold_walk_K<sma::Fixed>(p, T0, ten_minutes), 0.0, 0.05)
+          << "Q16.16, h " << w.h << " R " << w.R << " d0 " << w.d0 << " T " << T0;
+    }
+  }
 }

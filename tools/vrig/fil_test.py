@@ -206,6 +206,36 @@ def t_tracking(args, which):
     return name, summary, failures
 
 
+def t_hold(args):
+    """A constant setpoint held for 150 s (`pos 0.4`, inverse + PID): the wire and the heater's
+    voltage do not creep. The PID's floor is V_hold at the controller's own temperature estimate;
+    an estimate whose step disagrees with V_hold (a Q16.16 step built from a rounded a) walked the
+    floor, and the wire rode its loop's rise 0.1 mm in 4 minutes. Against the native twin too."""
+    name = "hold"
+    script = ["0.0 tele on", "0.02 mode ffpid", "0.05 pos 0.4"]
+    extra = ["--noise-mm", "0.002", "--seed", "7"]
+    duration = 150
+    _, rows_e, st_e = run_vrig(args, name, script, duration, extra)
+    _, rows_n, _ = run_vrig(args, name, script, duration, extra, native=True)
+
+    def mean(rows, col, a, b):
+        t0 = rows[0][0]
+        xs = [r[col] for r in rows if a <= r[0] - t0 < b]
+        return sum(xs) / len(xs)
+    d0, d1 = mean(rows_e, 2, 20, 30), mean(rows_e, 2, 140, 150)
+    v0, v1 = mean(rows_e, 1, 20, 30), mean(rows_e, 1, 140, 150)
+    dn = mean(rows_n, 2, 140, 150)
+    failures = []
+    common_checks(st_e, failures)
+    check(len(rows_e) >= duration * 100 - 5, f"only {len(rows_e)} telemetry rows", failures)
+    check(abs(d1 - d0) <= 0.005, f"the wire crept {1000 * (d1 - d0):+.1f} um from 20-30 s to 140-150 s", failures)
+    check(abs(v1 - v0) <= 0.002, f"the voltage crept {1000 * (v1 - v0):+.2f} mV", failures)
+    check(abs(d1 - dn) <= 0.005, f"held at {d1:.4f} mm, the native twin at {dn:.4f}", failures)
+    summary = {"d_20_30_mm": d0, "d_140_150_mm": d1, "v_20_30_V": v0, "v_140_150_V": v1, "native_d_140_150_mm": dn,
+               "cycles": st_e}
+    return name, summary, failures
+
+
 def t_bad_lines(args):
     name = "bad_lines"
     bad = [
@@ -653,7 +683,7 @@ def main():
     ap.add_argument("--out", required=True)
     ap.add_argument("--sma-params", help="the sma_params helper (upload test; default: next to vrig)")
     ap.add_argument("test", choices=["tracking_step", "tracking_sine", "bad_lines", "sensor_loss", "flood",
-                                     "watchdog_boot", "model", "upload", "download", "console", "train", "plot"])
+                                     "watchdog_boot", "model", "upload", "download", "console", "train", "plot", "hold"])
     args = ap.parse_args()
     global ELF
     ELF = args.elf
@@ -662,7 +692,7 @@ def main():
              "bad_lines": lambda: t_bad_lines(args), "sensor_loss": lambda: t_sensor_loss(args),
              "watchdog_boot": lambda: t_watchdog_boot(args), "model": lambda: t_model(args),
              "upload": lambda: t_upload(args), "download": lambda: t_download(args), "console": lambda: t_console(args), "train": lambda: t_train(args),
-             "plot": lambda: t_plot(args)}
+             "plot": lambda: t_plot(args), "hold": lambda: t_hold(args)}
     name, summary, failures = tests.get(args.test, lambda: t_flood(args))()
     summary["failures"] = failures
     with open(os.path.join(args.out, name, "summary.json"), "w") as f:

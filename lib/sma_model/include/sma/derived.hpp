@@ -45,6 +45,23 @@ __attribute__((noinline)) inline Fixed from_field<Fixed>(const double& x) {
 }
 #endif
 
+// A decay factor a = exp(-dt / tau) as the scalar, and 1 - a of that scalar's a, exact (the
+// thermal step's b is built from it: ThermalStep). In Q16.16 1 - a (~0.0024) is ~160 raw
+// steps: a float's 1 - a, rounded apart from a, would differ from the scalar's by up to 0.3 %.
+// (Q16.16: from the low-pass gain 1 - a, the helper the filters already call: flash on the Uno.)
+template <class T>
+inline T decay_as(double dt, double tau, double& one_minus_a) {
+  const T a = from_double<T>(decay_factor(dt / tau));
+  one_minus_a = 1.0 - to_double(a);  // exact: a in [0.5, 1] (Sterbenz)
+  return a;
+}
+template <>
+inline Fixed decay_as<Fixed>(double dt, double tau, double& one_minus_a) {
+  const Fixed k = low_pass_gain_as<Fixed>(dt, tau);
+  one_minus_a = static_cast<double>(k);
+  return Fixed::from_raw(65536L - k.raw());
+}
+
 // a != 0 || b != 0 || c != 0 for floats (NaN is not 0), by one test of the three bit patterns
 // without their signs: +-0 are the only floats equal to 0.
 inline bool any_nonzero_float(float a, float b, float c) {

@@ -97,6 +97,16 @@ struct ThermalStep {
     a = from_double<T>(ad);
     b = from_double<T>((1.0 - ad) / (p.R * G_th));
   }
+  // The same, its b from the scalar's own a and G (Thermal's G, the one V_hold multiplies by),
+  // not from the exact ones: V_hold = sqrt(R G (T - T_a)) then holds this step's T, b V_hold^2
+  // = (1 - a)(T - T_a). In Q16.16 a rounded on its own moves 1 - a (~0.0024) by up to 0.3 %, and
+  // a controller whose floor is V_hold at its own estimate walked that estimate down, and the wire
+  // with it, ~2 K in 4 min on a hold (the wire then rides its loop's rise: eqs 5-6).
+  ThermalStep(const Params& p, double dt, double C_th, double G_th, T G, T T_amb_true) : T_a(T_amb_true) {
+    double one_minus_a;
+    a = decay_as<T>(dt, C_th / G_th, one_minus_a);
+    b = from_double<T>(one_minus_a / (p.R * to_double(G)));
+  }
   T operator()(T Tw, T V) const { return passive(Tw) + heat(V); }
   T passive(T Tw) const { return T_a + a * (Tw - T_a); }  // no power
   T heat(T V) const { return b * V * V; }                  // what V adds
@@ -116,7 +126,7 @@ struct WireStep {
       : th(&thermal), exact(p, dt_s, fx), dt(from_double<T>(dt_s)) {}
   // With the C_th and G that `thermal` was built from (its true ambient too).
   WireStep(const Thermal<T>& thermal, const Params& p, double dt_s, double C_th, double G_th)
-      : th(&thermal), exact(p, dt_s, C_th, G_th, thermal.T_a), dt(from_double<T>(dt_s)) {}
+      : th(&thermal), exact(p, dt_s, C_th, G_th, thermal.G, thermal.T_a), dt(from_double<T>(dt_s)) {}
 
   // eps: austenite fraction (phase-dependent resistance); d_eps: its change over the tick (the
   // latent heat of what the wire transformed: fed a measured fraction tick by tick, its noise
