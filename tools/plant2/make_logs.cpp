@@ -16,6 +16,7 @@
 #include "excitations.hpp"
 #include "sma_host/model.hpp"
 #include "sma_host/plant_b.hpp"
+#include "sma_host/plant_b_rig.hpp"
 #include "sma_host/plant_b_sensor.hpp"
 
 namespace {
@@ -142,17 +143,8 @@ bool write_log(const Case& c, const std::string& path) {
   // Plant B's own reading of each effect (plant_b.hpp): convection as a conductance growing with
   // the temperature rise, latent heat as a temperature drop per unit of transformation.
   const sma::Effects fx = hidden_effects(c);
-  WireEffects wf;
-  wf.ambient_offset_K = fx.ambient_offset_K;
-  wf.G2_W_per_K2 = wire.conductance() * fx.convection_beta_per_K;
-  wf.k_R = fx.resistance_k;
-  wf.latent_K = fx.latent_heat_J / wire.heat_capacity();
-  wf.alpha_per_K = fx.thermal_expansion_per_K;
-  SensorEffects sf;
-  sf.delay_s = fx.sensor_delay_s;
-  sf.lag_s = fx.sensor_lag_s;
-  sf.gain = fx.sensor_gain;
-  sf.offset_mm = fx.sensor_offset_mm;
+  const WireEffects wf = sma_host::plant_b::wire_effects(fx, wire);
+  SensorEffects sf = sma_host::plant_b::sensor_effects(fx);
   sf.noise_mm = kNoiseMm;
   sf.adc_mm = c.adc ? kAdcMm : 0.0;
 

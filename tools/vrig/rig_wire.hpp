@@ -12,8 +12,7 @@
 #include "sma/effects.hpp"
 #include "sma/params.hpp"
 #include "sma_host/plant.hpp"
-#include "sma_host/plant_b.hpp"
-#include "sma_host/plant_b_sensor.hpp"
+#include "sma_host/plant_b_rig.hpp"
 
 namespace vrig {
 
@@ -52,9 +51,10 @@ class PlantBWire : public RigWire {
 };
 
 // Plant B with the wire of a params JSON (Table II values copied, no code shared) and the
-// effects in plant B's own terms (as tools/plant2/make_logs.cpp reads them). literal: a new
-// loop at every heating -> cooling reversal (model.md read literally); else return-point
-// memory (the library's reading). Empty `problem` unless the wire does not fit plant B.
+// effects in plant B's own terms (plant_b_rig.hpp, as tools/plant2/make_logs.cpp reads them).
+// literal: a new loop at every heating -> cooling reversal (model.md read literally); else
+// return-point memory (the library's reading). Null, with `problem`, when the wire does not fit
+// plant B.
 inline std::unique_ptr<RigWire> make_plant_b(const sma::Params& p, const sma::Effects& fx, bool literal,
                                              double noise_mm, double dt, uint64_t seed, std::string& problem) {
   sma_host::plant_b::Wire w;
@@ -74,19 +74,9 @@ inline std::unique_ptr<RigWire> make_plant_b(const sma::Params& p, const sma::Ef
     w.knot_j[k] = p.loops[k].j;
   }
   w.return_point_memory = !literal;
-  sma_host::plant_b::WireEffects wf;
-  wf.ambient_offset_K = fx.ambient_offset_K;
-  wf.G2_W_per_K2 = w.conductance() * fx.convection_beta_per_K;
-  wf.k_R = fx.resistance_k;
-  wf.latent_K = fx.latent_heat_J / w.heat_capacity();
-  wf.alpha_per_K = fx.thermal_expansion_per_K;
-  sma_host::plant_b::SensorEffects sf;
-  sf.delay_s = fx.sensor_delay_s;
-  sf.lag_s = fx.sensor_lag_s;
-  sf.gain = fx.sensor_gain;
-  sf.offset_mm = fx.sensor_offset_mm;
+  sma_host::plant_b::SensorEffects sf = sma_host::plant_b::sensor_effects(fx);
   sf.noise_mm = noise_mm;
-  return std::unique_ptr<RigWire>(new PlantBWire(w, wf, sf, dt, seed));
+  return std::unique_ptr<RigWire>(new PlantBWire(w, sma_host::plant_b::wire_effects(fx, w), sf, dt, seed));
 }
 
 }  // namespace vrig

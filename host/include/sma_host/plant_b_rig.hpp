@@ -16,6 +16,28 @@
 namespace sma_host {
 namespace plant_b {
 
+// The library's effect vocabulary (sma::Effects: what the discrepancy workflow names) in plant
+// B's own terms: convection as a conductance growing with the temperature rise, latent heat as a
+// temperature drop per unit of fraction transformed; the sensor's effects apart (no noise, no ADC:
+// the caller's).
+inline WireEffects wire_effects(const sma::Effects& fx, const Wire& w) {
+  WireEffects wf;
+  wf.ambient_offset_K = fx.ambient_offset_K;
+  wf.G2_W_per_K2 = w.conductance() * fx.convection_beta_per_K;
+  wf.k_R = fx.resistance_k;
+  wf.latent_K = fx.latent_heat_J / w.heat_capacity();
+  wf.alpha_per_K = fx.thermal_expansion_per_K;
+  return wf;
+}
+inline SensorEffects sensor_effects(const sma::Effects& fx) {
+  SensorEffects sf;
+  sf.delay_s = fx.sensor_delay_s;
+  sf.lag_s = fx.sensor_lag_s;
+  sf.gain = fx.sensor_gain;
+  sf.offset_mm = fx.sensor_offset_mm;
+  return sf;
+}
+
 class RigB {
  public:
   // rig: noise, ADC step, PWM levels of the condition (sma::RigOptions, read only as numbers).
