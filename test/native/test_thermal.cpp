@@ -127,7 +127,7 @@ TEST(ExpNegCompact, MatchesDoubleExp) {
 // The controller's temperature estimate (WireStep, eq 1 over a tick) fed the voltage that eq 17
 // says holds its temperature (V_hold, the PID's floor on a hold) must stay there: a step whose
 // gain disagrees with V_hold walks the estimate, and the floor with it, tick after tick. In
-// Q16.16 an a rounded on its own (1 - a ~0.0024, ~160 raw steps) made it walk 2 K in 4 min.
+// Q16.16 an a rounded apart from b (1 - a ~0.0024, ~160 raw steps) walks it ~2 K in 4 min.
 template <class T>
 double hold_walk_K(const sma::Params& p, double T0, int ticks) {
   const sma::Effects fx;

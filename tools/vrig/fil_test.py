@@ -209,8 +209,9 @@ def t_tracking(args, which):
 def t_hold(args):
     """A constant setpoint held for 150 s (`pos 0.4`, inverse + PID): the wire and the heater's
     voltage do not creep. The PID's floor is V_hold at the controller's own temperature estimate;
-    an estimate whose step disagrees with V_hold (a Q16.16 step built from a rounded a) walked the
-    floor, and the wire rode its loop's rise 0.1 mm in 4 minutes. Against the native twin too."""
+    an estimate whose step disagrees with V_hold (a Q16.16 step with a rounded apart from b) walks
+    the floor, and the wire rides its loop's rise, ~0.1 mm in 4 minutes. Against the native twin
+    too."""
     name = "hold"
     script = ["0.0 tele on", "0.02 mode ffpid", "0.05 pos 0.4"]
     extra = ["--noise-mm", "0.002", "--seed", "7"]

@@ -99,9 +99,9 @@ struct ThermalStep {
   }
   // The same, its b from the scalar's own a and G (Thermal's G, the one V_hold multiplies by),
   // not from the exact ones: V_hold = sqrt(R G (T - T_a)) then holds this step's T, b V_hold^2
-  // = (1 - a)(T - T_a). In Q16.16 a rounded on its own moves 1 - a (~0.0024) by up to 0.3 %, and
-  // a controller whose floor is V_hold at its own estimate walked that estimate down, and the wire
-  // with it, ~2 K in 4 min on a hold (the wire then rides its loop's rise: eqs 5-6).
+  // = (1 - a)(T - T_a). In Q16.16 a rounded on its own moves 1 - a (~0.0024) by up to 0.3 %; a
+  // controller whose floor is V_hold at its own estimate would walk that estimate, and the wire
+  // with it, ~2 K in 4 min on a hold (a cooler wire rides its loop's rise: eqs 5-6).
   ThermalStep(const Params& p, double dt, double C_th, double G_th, T G, T T_amb_true) : T_a(T_amb_true) {
     double one_minus_a;
     a = decay_as<T>(dt, C_th / G_th, one_minus_a);
