@@ -13,7 +13,9 @@ below inverse + PID's (whose sine RMS is <= 0.1 mm); steps RMS <= 0.05 mm and be
 wrong-way <= 0.03 mm; the preview's control section <= 16000 cycles in both; the plan passes of
 every tick done before the next in both (the board runs the plan the host's board loop proves:
 Board::plan_passes() a tick, Board::plan_short; the telemetry row after the passes,
-docs/control.md section 22) and no tick late by more than 50 us. Prints the table (with the
+docs/control.md section 22) and no tick late by more than 50 us; with --bound (bench_optimal_bound's
+JSON, written by the benchmarks before CTest runs) the sine within issue 13's 1.5x of the rig-like
+bound, max and RMS (without it: NOT CHECKED). Prints the table (with the
 cycle, from the tick's start, by which the worst tick's passes were done: the margin to the next
 tick, ~2 k of 160 k cycles on the steps, docs/control.md section 36) and writes
 DIR/fil_preview.json.
@@ -25,6 +27,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from fil_lead import sine_bound  # noqa: E402
 from paper_tests import scored_run  # noqa: E402
 
 RUNS = (("sine", "sine", 100.0), ("steps", "step", 125.0))
@@ -44,6 +47,7 @@ def main():
     ap.add_argument("--metrics", required=True, help="sma_metrics")
     ap.add_argument("--out", required=True)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--bound", help="bench_optimal_bound's JSON: check the sine within 1.5x of its rig-like bound")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     res = {}
@@ -64,6 +68,13 @@ def main():
                   f"{r['max_fall_mm']:.4f} | {r['wrong_way_mm']:.4f} / {r['wrong_way_before_mm']:.4f} | {r['sse_mm']:.4f} | "
                   f"{c['control_cycles_max']}/{c['control_cycles_mean']:.0f} | {c['plan_short_ticks']} "
                   f"({c.get('plan_done_cycles_max', 0)} of {c.get('cycles_per_tick_budget', 0)}) | {c['tick_jitter_us']:.1f} |")
+    bound = sine_bound(a.bound)
+    if bound:
+        sp = res["sine_preview"]
+        sp["bound_ratio"] = {"max": sp["max_mm"] / bound["max_mm"], "rms": sp["rms_mm"] / bound["rms_mm"]}
+        print(f"Sine against the optimal bound (rig-like, {a.bound}): max {bound['max_mm']:.6f} / RMS "
+              f"{bound['rms_mm']:.6f} mm; the preview {sp['bound_ratio']['max']:.3f}x / "
+              f"{sp['bound_ratio']['rms']:.3f}x; issue 13 asks within 1.5x")
     with open(os.path.join(a.out, "fil_preview.json"), "w") as f:
         json.dump(res, f, indent=1)
 
@@ -98,6 +109,10 @@ def main():
         ("sine: tick jitter <= 50 us", s["cycles"]["tick_jitter_us"] <= 50.0),
         ("steps: tick jitter <= 50 us", p["cycles"]["tick_jitter_us"] <= 50.0),
     ]
+    if bound:
+        checks.append(("sine within 1.5x of the optimal bound (max and RMS)", max(s["bound_ratio"].values()) <= 1.5))
+    else:
+        print("NOT CHECKED sine within 1.5x of the optimal bound: no bound (--bound; scripts/bench writes it)")
     bad = [n for n, ok in checks if not ok]
     for n, ok in checks:
         print(("PASS " if ok else "FAIL ") + n)

@@ -121,6 +121,15 @@ struct PreviewConfig {
   // the horizon (0 = off).
   double lookahead_s = 16.0;
   double rise_margin_mm = 0.005;
+  // The resolution of riding a loop's rise (eqs 5-6) on the cooling branch. The model wire
+  // follows the reference, so whether a reference that is not falling lies just above it or
+  // just below is a rounding (0.2 um decided it between double and Q16.16): up to ride_margin_mm
+  // below the model wire it is still ridden (the temperature held: the wire stays), not taken
+  // as a move down (cooled through: the wire would first rise the whole rest of the rise). And
+  // a reference within ride_margin_mm of the rise's top is not ridden up to it: the wire is
+  // cooled on through the flat stage, so that it reaches T_MSi as the reference turns down
+  // instead of waiting at the top through the flat stage (it ends at most the margin past).
+  double ride_margin_mm = 0.005;
   // The heater's PWM (duty = (V / v_supply)^2 in pwm_top levels; 0 = continuous). On the
   // cooling branch above the loop's T_MSi (the rise and the flat stage) the command is rounded
   // down to a level, so the PWM's rounding never re-heats a wire that is meant to cool or hold
@@ -178,6 +187,7 @@ struct PreviewConfig {
     if (!(switch_margin_mm >= 0.0 && switch_margin_mm < 1.0)) return "switch_margin_mm must be in 0..1";
     if (!(lookahead_s >= 0.0 && lookahead_s <= 64.0)) return "lookahead_s must be in 0..64";
     if (!(rise_margin_mm >= 0.0 && rise_margin_mm <= 0.1)) return "rise_margin_mm must be in 0..0.1";
+    if (!(ride_margin_mm >= 0.0 && ride_margin_mm <= 0.1)) return "ride_margin_mm must be in 0..0.1";
     if (!(v_supply >= v_max && v_supply <= 50.0)) return "v_supply must be in v_max..50";
     if (!(heat_gain_memory_s == 0.0 || (heat_gain_memory_s >= 1.0 && heat_gain_memory_s <= 1000.0)))
       return "heat_gain_memory_s must be 0 or in 1..1000";
@@ -248,6 +258,7 @@ class PreviewCore {
         lag_ticks_(from_double<T>(cfg.heat_gain_lag_ticks)),
         far_step_s_(cfg.lookahead_s / kFar),
         rise_margin_(from_double<T>(cfg.rise_margin_mm)),
+        ride_margin_(from_double<T>(cfg.ride_margin_mm / p.g)),
         min_hold_(static_cast<uint8_t>(2.0 / cfg.grid_s + 0.999)),
         look_far_(cfg.lookahead_s > 0.0),
         lag_guard_(from_double<T>(cfg.lag_guard_mm)),
@@ -591,7 +602,7 @@ class PreviewCore {
   // The voltage that drives the model wire onto branch heat's temperature for lead reference r
   // (mm): eq 15 or 16 (branch_temperature), then eq 17 with the first-order pull track_s.
   SMA_PREVIEW_NOINLINE T branch_voltage(bool heat, T r) {
-    T T_cmd = branch_temperature(heat, est_, T_est_, r);
+    T T_cmd = branch_temperature(heat, est_, T_est_, r, !heat && below(r, ref_now_));
     if (!heat && stale_cooling()) T_cmd = max(T_cmd, T_est_);
     const T slope = (T_cmd - T_est_) * inv_track_;
     // Eq 17, with the observed heat loss: k^ G (T - T_a) = G (T - T_a) + C (extra slope).
@@ -724,7 +735,8 @@ class PreviewCore {
   // the loop the hysteresis h would follow), never against the branch, for reference r (mm).
   // The cooling loop is built once (prepare_cooling): the reversal's update() and the PWM
   // rounding reuse it (three builds of eqs 5-11 on one tick otherwise).
-  T branch_temperature(bool heat, Hysteresis<T>& h, T Tw, T r) const {
+  // `falling`: the reference moves down (r below the reference before it).
+  T branch_temperature(bool heat, Hysteresis<T>& h, T Tw, T r, bool falling) const {
     const T eps_t = fraction(r - d_);  // eq 14, with the offset
     if (heat) return max(Tw, capped(r) ? cap_T_ + T(0.1) : curves_.heat_temperature(eps_t));
     const CoolingLoop<T>& L = h.prepare_cooling();
@@ -733,8 +745,11 @@ class PreviewCore {
     // loop: it is cooled on through the flat stage (eqs 7-10, the fraction held at the top) to
     // T_MSi (eq 16), so that it follows the reference down at once instead of waiting there for
     // the flat stage. Not before a move down (take the rise now, and hold on the cooling curve).
-    if (Tw > L.T_ii && !(eps_t < h.eps()) && eps_t < L.top && !capped(r))
-      return min(Tw, curves_.rise_temperature(L, eps_t));
+    // (Both to within PreviewConfig::ride_margin_mm.)
+    if (Tw > L.T_ii && !capped(r)) {
+      const T e_m = eps_t + ride_margin_;
+      if (!((falling ? eps_t : e_m) < h.eps()) && e_m < L.top) return min(Tw, curves_.rise_temperature(L, eps_t));
+    }
     return min(Tw, curves_.cool_temperature(L, eps_t));
   }
 
@@ -928,7 +943,11 @@ class PreviewCore {
         sim_ext_ = r;
       }
     }
-    const T target = branch_temperature(sim_heat_, sim_h_, sim_T_, r);
+    const T r_before = j_ ? r_[j_ - 1] : ref_now_;
+    const bool down = below(r, r_before);
+    const T target = branch_temperature(sim_heat_, sim_h_, sim_T_, r, down);
+    if (down) sim_fall_ = true;
+    if (above(r, r_before)) sim_fall_ = false;
     // Exact limits of eq 1 over one grid step: full power, or none.
     // (the observed heat loss to first order over the grid step: (k^ - 1) G grid_s / C)
     const T loss = observing() ? heat_.loss_correction() * grid_ticks_ * (sim_T_ - thermal_.T_a) : T(0);
@@ -941,9 +960,6 @@ class PreviewCore {
     // so the plan trades a long small error for a short large one the way the max metric does.
     const T e = T(10) * (mech_.displacement(sim_h_.update(sim_T_)) + d_ - r);
     const T e2 = e * e;
-    const T r_before = j_ ? r_[j_ - 1] : ref_now_;
-    if (below(r, r_before)) sim_fall_ = true;
-    if (above(r, r_before)) sim_fall_ = false;
     // The mean over the horizon, not the sum: Q16.16 (max 32767) holds it for any error of the
     // stroke (e2 (1 + e2) <= ~8600 at 0.96 mm) and any cool_weight <= 100 on a grid of up to kMaxGrid steps.
     cost_ = cost_ + (sim_fall_ ? cool_w_ : T(1)) * (e2 * (T(1) + e2) * inv_n_);
@@ -984,6 +1000,7 @@ class PreviewCore {
   T loss_rate_ = T(0);  // (k^ - 1) G / C, 1/s: eq 17's extra slope per kelvin (branch_voltage)
   double far_step_s_;  // lookahead_s / kFar
   T rise_margin_;      // rise_margin_mm
+  T ride_margin_;      // ride_margin_mm as a fraction (eq 14)
   uint8_t min_hold_;   // grid steps of a hold: 2 s
   bool look_far_;
   // The lag guard and the heating curve's shift (update_offset, learn_shift).

@@ -89,17 +89,12 @@ template <class T>
 struct ThermalStep {
   T a, b, T_a;
   ThermalStep(const Params& p, double dt, const Effects& fx = Effects())
-      : ThermalStep(p, dt, p.heat_capacity(), p.conductance(), from_double<T>(fx.ambient_C(p.T_amb))) {}
-  // With C_th, G and the true ambient computed by the caller (Thermal's).
-  ThermalStep(const Params& p, double dt, double C_th, double G_th, T T_amb_true) : T_a(T_amb_true) {
-    const double tau = C_th / G_th;
-    const double ad = decay_factor(dt / tau);
-    a = from_double<T>(ad);
-    b = from_double<T>((1.0 - ad) / (p.R * G_th));
-  }
-  // The same, its b from the scalar's own a and G (Thermal's G, the one V_hold multiplies by),
-  // not from the exact ones: V_hold = sqrt(R G (T - T_a)) then holds this step's T, b V_hold^2
-  // = (1 - a)(T - T_a). In Q16.16 a rounded on its own moves 1 - a (~0.0024) by up to 0.3 %; a
+      : ThermalStep(p, dt, p.heat_capacity(), p.conductance(), from_double<T>(p.conductance()),
+                    from_double<T>(fx.ambient_C(p.T_amb))) {}
+  // With C_th, G and the true ambient computed by the caller (Thermal's), G also as the scalar
+  // (the one eq 17's V_hold multiplies by). b comes from the scalar's own a and G, not from the
+  // exact ones: V_hold = sqrt(R G (T - T_a)) then holds this step's T, b V_hold^2 =
+  // (1 - a)(T - T_a). In Q16.16 a rounded on its own moves 1 - a (~0.0024) by up to 0.3 %; a
   // controller whose floor is V_hold at its own estimate would walk that estimate, and the wire
   // with it, ~2 K in 4 min on a hold (a cooler wire rides its loop's rise: eqs 5-6).
   ThermalStep(const Params& p, double dt, double C_th, double G_th, T G, T T_amb_true) : T_a(T_amb_true) {
