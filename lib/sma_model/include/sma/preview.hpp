@@ -122,10 +122,12 @@ struct PreviewConfig {
   double lookahead_s = 16.0;
   double rise_margin_mm = 0.005;
   // The resolution of riding a loop's rise (eqs 5-6) on the cooling branch. The model wire
-  // follows the reference, so whether a reference that is not falling lies just above it or
-  // just below is a rounding (0.2 um decided it between double and Q16.16): up to ride_margin_mm
-  // below the model wire it is still ridden (the temperature held: the wire stays), not taken
-  // as a move down (cooled through: the wire would first rise the whole rest of the rise). And
+  // follows the reference, so whether a reference that climbs lies just above it or just below
+  // is a rounding (0.2 um decided it between double and Q16.16): up to ride_margin_mm below the
+  // model wire a climbing reference is still ridden (the temperature held: the wire stays), not
+  // taken as a move down (cooled through: the wire would first rise the whole rest of the rise).
+  // (A held reference is not: cooling through at a hold is the plan's way to be at T_MSi when a
+  // move down comes.) And
   // a reference within ride_margin_mm of the rise's top is not ridden up to it: the wire is
   // cooled on through the flat stage, so that it reaches T_MSi as the reference turns down
   // instead of waiting at the top through the flat stage (it ends at most the margin past).
@@ -602,7 +604,7 @@ class PreviewCore {
   // The voltage that drives the model wire onto branch heat's temperature for lead reference r
   // (mm): eq 15 or 16 (branch_temperature), then eq 17 with the first-order pull track_s.
   SMA_PREVIEW_NOINLINE T branch_voltage(bool heat, T r) {
-    T T_cmd = branch_temperature(heat, est_, T_est_, r, !heat && below(r, ref_now_));
+    T T_cmd = branch_temperature(heat, est_, T_est_, r, !heat && above(r, ref_now_));
     if (!heat && stale_cooling()) T_cmd = max(T_cmd, T_est_);
     const T slope = (T_cmd - T_est_) * inv_track_;
     // Eq 17, with the observed heat loss: k^ G (T - T_a) = G (T - T_a) + C (extra slope).
@@ -735,8 +737,8 @@ class PreviewCore {
   // the loop the hysteresis h would follow), never against the branch, for reference r (mm).
   // The cooling loop is built once (prepare_cooling): the reversal's update() and the PWM
   // rounding reuse it (three builds of eqs 5-11 on one tick otherwise).
-  // `falling`: the reference moves down (r below the reference before it).
-  T branch_temperature(bool heat, Hysteresis<T>& h, T Tw, T r, bool falling) const {
+  // `rising`: the reference climbs (r above the reference before it).
+  T branch_temperature(bool heat, Hysteresis<T>& h, T Tw, T r, bool rising) const {
     const T eps_t = fraction(r - d_);  // eq 14, with the offset
     if (heat) return max(Tw, capped(r) ? cap_T_ + T(0.1) : curves_.heat_temperature(eps_t));
     const CoolingLoop<T>& L = h.prepare_cooling();
@@ -748,7 +750,7 @@ class PreviewCore {
     // (Both to within PreviewConfig::ride_margin_mm.)
     if (Tw > L.T_ii && !capped(r)) {
       const T e_m = eps_t + ride_margin_;
-      if (!((falling ? eps_t : e_m) < h.eps()) && e_m < L.top) return min(Tw, curves_.rise_temperature(L, eps_t));
+      if (!((rising ? e_m : eps_t) < h.eps()) && e_m < L.top) return min(Tw, curves_.rise_temperature(L, eps_t));
     }
     return min(Tw, curves_.cool_temperature(L, eps_t));
   }
@@ -944,10 +946,10 @@ class PreviewCore {
       }
     }
     const T r_before = j_ ? r_[j_ - 1] : ref_now_;
-    const bool down = below(r, r_before);
-    const T target = branch_temperature(sim_heat_, sim_h_, sim_T_, r, down);
-    if (down) sim_fall_ = true;
-    if (above(r, r_before)) sim_fall_ = false;
+    const bool up = above(r, r_before);
+    const T target = branch_temperature(sim_heat_, sim_h_, sim_T_, r, up);
+    if (below(r, r_before)) sim_fall_ = true;
+    if (up) sim_fall_ = false;
     // Exact limits of eq 1 over one grid step: full power, or none.
     // (the observed heat loss to first order over the grid step: (k^ - 1) G grid_s / C)
     const T loss = observing() ? heat_.loss_correction() * grid_ticks_ * (sim_T_ - thermal_.T_a) : T(0);
