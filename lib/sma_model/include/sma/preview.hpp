@@ -604,7 +604,7 @@ class PreviewCore {
   // The voltage that drives the model wire onto branch heat's temperature for lead reference r
   // (mm): eq 15 or 16 (branch_temperature), then eq 17 with the first-order pull track_s.
   SMA_PREVIEW_NOINLINE T branch_voltage(bool heat, T r) {
-    T T_cmd = branch_temperature(heat, est_, T_est_, r, !heat && above(r, ref_now_));
+    T T_cmd = branch_temperature(heat, est_, T_est_, r, !heat && r > ref_now_);
     if (!heat && stale_cooling()) T_cmd = max(T_cmd, T_est_);
     const T slope = (T_cmd - T_est_) * inv_track_;
     // Eq 17, with the observed heat loss: k^ G (T - T_a) = G (T - T_a) + C (extra slope).
