@@ -127,10 +127,10 @@ struct PreviewConfig {
   // model wire a climbing reference is still ridden (the temperature held: the wire stays), not
   // taken as a move down (cooled through: the wire would first rise the whole rest of the rise).
   // (A held reference is not: cooling through at a hold is the plan's way to be at T_MSi when a
-  // move down comes.) And
-  // a reference within ride_margin_mm of the rise's top is not ridden up to it: the wire is
-  // cooled on through the flat stage, so that it reaches T_MSi as the reference turns down
-  // instead of waiting at the top through the flat stage (it ends at most the margin past).
+  // move down comes.) And a reference within ride_margin_mm of the rise's top is not ridden up
+  // to it: the wire is cooled on through the flat stage, so that it reaches T_MSi as the
+  // reference turns down instead of waiting at the top through it (it ends at most the margin
+  // past the reference).
   double ride_margin_mm = 0.005;
   // The heater's PWM (duty = (V / v_supply)^2 in pwm_top levels; 0 = continuous). On the
   // cooling branch above the loop's T_MSi (the rise and the flat stage) the command is rounded
