@@ -604,6 +604,8 @@ class PreviewCore {
   // The voltage that drives the model wire onto branch heat's temperature for lead reference r
   // (mm): eq 15 or 16 (branch_temperature), then eq 17 with the first-order pull track_s.
   SMA_PREVIEW_NOINLINE T branch_voltage(bool heat, T r) {
+    // (Climbing: a plain compare, not above()'s deadband: this runs between the Mega's ticks,
+    // where the plan passes have ~1.3 k cycles to spare at their worst.)
     T T_cmd = branch_temperature(heat, est_, T_est_, r, !heat && r > ref_now_);
     if (!heat && stale_cooling()) T_cmd = max(T_cmd, T_est_);
     const T slope = (T_cmd - T_est_) * inv_track_;
