@@ -11,13 +11,19 @@
 
 namespace {
 
-template <class T>
-double sine_max_rig_like(double ride_margin_mm = sma::PreviewConfig().ride_margin_mm) {
+// The paper's sine, rig-like, under the preview with the given ride margin.
+sma_host::RunSetup preview_sine(double ride_margin_mm) {
   sma_host::RunSetup s;
   s.mode = sma::Mode::Preview;
   s.preview.ride_margin_mm = ride_margin_mm;
   s.reference = sma::Reference::sine();
   s.condition = sma_host::Condition::rig_like();
+  return s;
+}
+
+template <class T>
+double sine_max_rig_like(double ride_margin_mm = sma::PreviewConfig().ride_margin_mm) {
+  const sma_host::RunSetup s = preview_sine(ride_margin_mm);
   return sma_host::sine_metrics(sma_host::run_closed_loop<T>(s), s.reference.sine_period_s).max_mm;
 }
 
@@ -41,11 +47,7 @@ TEST(PreviewTop, SineWithinOneAndAHalfTimesTheBound) {
 // still ridden: every scalar meets issue 13's sine targets; without it Q16.16 does not.
 template <class T>
 sma_host::Metrics sine_on_b(double wire_h_scale, double ride_margin_mm) {
-  sma_host::RunSetup s;
-  s.mode = sma::Mode::Preview;
-  s.reference = sma::Reference::sine();
-  s.condition = sma_host::Condition::rig_like();
-  s.preview.ride_margin_mm = ride_margin_mm;
+  const sma_host::RunSetup s = preview_sine(ride_margin_mm);
   sma_host::plant_b::Wire w;
   w.h *= wire_h_scale;
   w.return_point_memory = true;
