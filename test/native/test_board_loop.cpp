@@ -146,7 +146,7 @@ TEST(BoardLoop, TheLeadIsSentAsTheBoardsFactor) {
   s.reference = sma::Reference::constant(0.4);  // no future: no line
   EXPECT_EQ(lead_line(s), "");
   s.reference = sma::Reference::sine();
-  s.lead.lead_s = 7.0;  // 2.15 x 3.25 s: beyond the console's 0..2
+  s.lead.lead_s = 2.1 * sma::lead_for(sma::RefKind::Sine).lead_s;  // beyond the console's 0..2
   EXPECT_THROW(sma_host::board_commands(s), sma_host::Error);
   s.lead.lead_s = 3.0;
   s.lead.peak_window_s = 5.0;  // the board's window is the default one

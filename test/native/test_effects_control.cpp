@@ -107,8 +107,11 @@ TEST(EffectsInController, PhaseDependentResistanceKnownTracksAsWellAsNoEffect) {
   const sma_host::Metrics none = run(0.0);
   for (double k : {-0.05, 0.05}) {
     const sma_host::Metrics m = run(k);
-    EXPECT_LE(m.max_heat_mm, none.max_heat_mm + 0.006) << "k_R " << k;  // 3 ADC steps
-    EXPECT_LE(m.sse_mm, none.sse_mm + 0.004) << "k_R " << k;
+    // 3 ADC steps each (the sensor's 0.002 mm): the steady state of a PID without integral (the
+    // tuner's ki = 0) is where the approach's overshoot locked in, and an effect known to the
+    // model moves that approach by a step or two either way.
+    EXPECT_LE(m.max_heat_mm, none.max_heat_mm + 0.006) << "k_R " << k;
+    EXPECT_LE(m.sse_mm, none.sse_mm + 0.006) << "k_R " << k;
   }
 }
 

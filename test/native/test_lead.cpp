@@ -90,29 +90,28 @@ TEST(Lead, RidingTheRiseCoolsWhileTheReferenceRises) {
 }
 
 // At a valley of the sine the reference lead_s ahead turns up while the present one still falls.
-// The inverse reads the lower of the two, so that reading turns up lead_s before the valley and
-// down again when the present reference passes below it (half the lead before a symmetric
-// valley). Followed, it heated the wire 3 s early, stopped it 0.015 mm above the valley, cooled
-// it again and heated it a third time (the PID against it: the wire above the falling
-// reference). The branch does not reverse against the future: one turn to heating per valley,
-// when the point ahead rises past the present reference, half the lead before the valley; the
-// flat stage between the cooling and the heating curve (eq 4) takes ~3 s of heating, so the wire
-// neither stops far above the valley nor lags far behind the rise after it. While the heating is
-// kept and the reference still falls, the PID acts on the gap to the reference the heating
-// turned at (InverseModel::extreme()), not to the falling one: it would answer the wire above the
-// reference by holding back the heating the rise needs.
-TEST(Lead, TheValleyIsTurnedOnceHalfTheLeadBeforeIt) {
-  const RunSetup s = setup(sma::Mode::FeedforwardPid, true, 3.0);
+// On the cooling stage the inverse's path is the present reference's (the lead ends where the wire
+// moves: InverseModel::step), and the branch does not reverse against the future: one turn to
+// heating per valley, where the present reference comes back up past its lowest point (the
+// deadband, 0.1 um: ~0.2 s after the valley of the paper's sine), never before it (a turn on the
+// point ahead, half the lead early, held the wire on the flat stage above the falling reference:
+// the wire stopped ~0.004 mm above the valley, then overshot the rise). The flat stage between the
+// cooling and the heating curve (eq 4) takes ~2 s of heating at V_max from the valley's 26 C, while
+// the reference rises 0.25 (1 - cos(2 pi 2 / 50)) = 0.008 mm: the wire lags the rise by about
+// that much, not more.
+TEST(Lead, TheValleyIsTurnedOnceWhereThePresentReferenceTurns) {
+  RunSetup s = setup(sma::Mode::FeedforwardPid, true, 3.0);
   sma::Controller<double> ctl(s.model_params, s.model_effects, s.config);
   sma::ReferenceGen<double> gen(s.reference, s.config.dt);
   ctl.set_mode(sma::Mode::FeedforwardPid, 0.0);
   const uint32_t lead = s.lead.lead_ticks(s.config.dt), window = s.lead.sample_ticks(s.config.dt);
   const double P = s.reference.sine_period_s;
-  // The model wire as the plant (ideal tracking): the turns are the inverse's own.
+  // The model wire as the plant (ideal tracking): the turns are the inverse's own. One second past
+  // the third period, so that its valley is in the run.
   double d = 0.0;
   bool heating = true;
   std::vector<double> to_heating;
-  for (uint32_t k = 0; k < 15000; ++k) {
+  for (uint32_t k = 0; k < 15100; ++k) {
     const double t = k * s.config.dt;
     ctl.step(gen.at_tick(k, s.config.dt), d, gen.lookahead(k, lead, window, s.config.dt), true);
     const sma::InverseModel<double>& inv = ctl.inverse();
@@ -121,14 +120,16 @@ TEST(Lead, TheValleyIsTurnedOnceHalfTheLeadBeforeIt) {
     heating = inv.heating();
     ctl.prepare_next_tick();
   }
-  // The valleys: t = P, 2P, 3P (the sine starts at its valley, t = 0; the run ends at 3P).
+  // The valleys: t = P, 2P, 3P (the sine starts at its valley, t = 0).
   ASSERT_EQ(to_heating.size(), 3u) << "one turn to heating per valley";
   for (size_t i = 0; i < to_heating.size(); ++i) {
-    const double before = static_cast<double>(i + 1) * P - to_heating[i];
-    std::printf("valley %zu: turned to heating %.2f s before it\n", i + 1, before);
-    EXPECT_NEAR(before, 0.5 * s.lead.lead_s, 0.1);
+    const double after = to_heating[i] - static_cast<double>(i + 1) * P;
+    std::printf("valley %zu: turned to heating %.2f s after it\n", i + 1, after);
+    EXPECT_GE(after, 0.0) << "not before the present reference turns";
+    EXPECT_LT(after, 0.5) << "the deadband's 0.1 um: ~0.2 s";
   }
-  // Closed loop (rig-like, float): the error within 5 s of each valley.
+  // Closed loop (rig-like, float, the sine's board lead): the error within 5 s of each valley.
+  s.lead = sma::lead_for(sma::RefKind::Sine);
   const std::vector<Sample> r = sma_host::run_closed_loop<float>(s);
   double worst = 0.0;
   for (const Sample& x : r) {
@@ -136,12 +137,9 @@ TEST(Lead, TheValleyIsTurnedOnceHalfTheLeadBeforeIt) {
     if (x.t >= P - 5.0 && (phase < 5.0 || phase > P - 5.0)) worst = std::max(worst, std::fabs(x.truth - x.ref));
   }
   std::printf("valleys: max error %.4f mm\n", worst);
-  // Stopped half the lead early on the sine's 0.25 mm amplitude: 0.25 (1 - cos(2 pi 1.5 / 50))
-  // = 0.0044 mm above the valley, and about as much behind the rise after it: the heating across
-  // the flat stage (eq 4) takes ~3 s at V_max. (With the PID on the falling reference while the
-  // heating is kept it held the wire's temperature, V_hold its floor: 0.015 mm. Turned lead_s
-  // early, heated, cooled and heated again: 0.032 mm behind the rise.)
-  EXPECT_LT(worst, 0.01);
+  // The flat stage's 0.008 mm, the sensor's delay and noise (rig-like) and the PID's answer to
+  // them. (A turn half the 5.25 s lead early: 0.015 mm above the valley, then behind the rise.)
+  EXPECT_LT(worst, 0.013);
 }
 
 // A hold reached on the ride (the reference's fraction equals the memory's, up to rounding) is

@@ -14,7 +14,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(
 import paper_tests  # noqa: E402
 
 
-BOARD_LEAD_S = {"sine": 3.25, "steps": 10.0}  # sma::lead_for, as bench_tracking writes it
+BOARD_LEAD_S = {"sine": 5.25, "steps": 10.0}  # sma::lead_for, as bench_tracking writes it
 
 
 def _tracking(tmp_path, test, lead_s, board_lead_s=True):
@@ -43,9 +43,9 @@ def test_each_lead_of_the_grid_lands_on_its_tick(tmp_path):
 
 
 def test_the_boards_own_lead_and_one_out_of_range_send_nothing(tmp_path):
-    assert paper_tests.lead_command(_tracking(tmp_path, "sine", 3.25), "sine") is None
+    assert paper_tests.lead_command(_tracking(tmp_path, "sine", 5.25), "sine") is None
     assert paper_tests.lead_command(_tracking(tmp_path, "multi-step", 10.0), "steps") is None
-    assert paper_tests.lead_command(_tracking(tmp_path, "sine", 12.0), "sine") is None  # F = 3.7: outside 0..2
+    assert paper_tests.lead_command(_tracking(tmp_path, "sine", 12.0), "sine") is None  # F = 2.3: outside 0..2
     assert paper_tests.lead_command(str(tmp_path / "missing.json"), "sine") is None
     # A tuner's row without the board's lead (an older tracking.json): nothing is sent.
     assert paper_tests.lead_command(_tracking(tmp_path, "sine", 4.0, board_lead_s=False), "sine") is None

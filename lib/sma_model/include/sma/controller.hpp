@@ -78,7 +78,7 @@ struct LeadConfig {
 // trajectory with a short hold before a long fall loses from 3.5 s on (its max error 0.52 ->
 // 0.72 mm; section 38); none on a constant (it has no future).
 constexpr LeadConfig lead_for(RefKind k) {
-  return LeadConfig{k == RefKind::MultiStep ? 10.0 : k == RefKind::Constant ? 0.0 : 3.25, LeadConfig().peak_window_s};
+  return LeadConfig{k == RefKind::MultiStep ? 10.0 : k == RefKind::Constant ? 0.0 : k == RefKind::Sine ? 5.25 : 3.25, LeadConfig().peak_window_s};
 }
 
 // Tag of a ControllerConfig whose check() the caller has proven at compile time (the board's

@@ -34,7 +34,7 @@ namespace sma {
 
 struct InverseConfig {
   double dt = 0.01;            // tick, s
-  double rate_filter_s = 0.3;  // time constant of the desired-temperature low-pass, s
+  double rate_filter_s = 0.1;  // time constant of the desired-temperature low-pass, s
   double track_s = 0.5;        // time constant of the pull of the wire onto the path, s
   double v_max = 2.0;          // the heater's limit, V (eq 18): the model wire sees it too
   double deadband_mm = 1e-4;   // the reference must come back this far from its last extreme
@@ -100,15 +100,25 @@ class InverseModel {
   //   present point would carry the wire to the peak: the branch turns to cooling and the wire
   //   rides the rise up (lower temperature, higher fraction) while the reference still climbs,
   //   instead of being heated to the peak and rising past it when the cooling starts (Fig. 12).
+  // - The lead ends where the wire moves: the point ahead is read while the memory is still
+  //   above its loop's T_MSi (the rise and the flat stage, eqs 5-7: the wire must cool before it
+  //   moves, the lead's reason). On the cooling stage (eq 11) the wire moves with its
+  //   temperature, and a path lead_s ahead would carry it below the present reference (0.02 mm
+  //   after the paper's sine's top); there the inverse reads the present reference, and the
+  //   memory holds where the point ahead took it until the present reference comes down to it
+  //   (eq 16 does not raise T on a cooling branch). At a valley the wire is then on the
+  //   present reference's path and turns to heating with it.
   // (`peak_rule` false: step(now). The references are positions on the stroke, >= 0.)
   T step(T now, T ahead, T peak, bool peak_rule) {
     const bool lower = peak_rule && above(now, ahead);
-    return step_(lower ? ahead : now, peak, peak_rule, lower);
+    const bool early = lower && (heating_ || riding_);
+    return step_(early ? ahead : now, peak, peak_rule, lower);
   }
 
   // (The two inline into one body each: the paper's step(u) compiles to the code it had, the
   // rule folded away, flash on the Uno; a board with the lead carries only the second.)
-  // `lower`: u is the point ahead, below the present reference (the future lies lower).
+  // `lower`: the future lies lower (u is the point ahead, or the present reference where the
+  // lead is over).
   __attribute__((always_inline)) inline T step_(T u, T peak, bool peak_rule, bool lower) {
     advance_model();  // the last tick's, where the caller did not run it between ticks
     if (!is_finite(u)) u = u_prev_;  // hold the last reference on NaN

@@ -110,7 +110,7 @@ class ReferenceGen {
   // (Q0.32 turns, wrapping once per period), no time in T or float; the other kinds at(k dt).
   T at_tick(uint32_t k, double dt) const {
     if (r_.kind == RefKind::Sine) return sine_at(k * turns_per_tick_);
-    return at(static_cast<double>(k) * dt);
+    return at_other(static_cast<double>(k) * dt);
   }
 
   // The known future at tick k: the reference lead_ticks ahead, and the
@@ -152,17 +152,25 @@ class ReferenceGen {
 
   // Reference at t seconds (t >= 0).
   T at(double t) const {
+    if (r_.kind == RefKind::Sine) {
+      // Phase reduced to [0, 1) in double (float on AVR) so T never sees a large angle.
+      const double cycles = t * inv_period_s_;
+      return sine_at(trunc_u32((cycles - static_cast<double>(trunc_u32(cycles))) * 4294967296.0));
+    }
+    return at_other(t);
+  }
+
+  const Reference& config() const { return r_; }
+
+ private:
+  // Every kind but the sine at t seconds (at_tick has the sine's own path).
+  T at_other(double t) const {
     switch (r_.kind) {
       case RefKind::MultiStep: {
         long k = static_cast<long>(trunc_u32(t * inv_step_s_));  // (t >= 0)
         if (k < 0) k = 0;
         if (k >= r_.n_steps) k = r_.n_steps - 1;
         return from_double<T>(r_.step_mm[k]);
-      }
-      case RefKind::Sine: {
-        // Phase reduced to [0, 1) in double (float on AVR) so T never sees a large angle.
-        const double cycles = t * inv_period_s_;
-        return sine_at(trunc_u32((cycles - static_cast<double>(trunc_u32(cycles))) * 4294967296.0));
       }
       case RefKind::Trajectory: {
         if (r_.n_points == 0) return T(0);
@@ -179,9 +187,6 @@ class ReferenceGen {
     }
   }
 
-  const Reference& config() const { return r_; }
-
- private:
   // The sine at phase p (Q0.32 turns): lo + span (1 - cos 2 pi p) / 2 = lo + span cos_ramp(x),
   // x = 2 p folded to [0, 1]: the phase curves' shape (scalar.hpp), so the image carries one
   // cosine. x in Q1.31 is 2 p for p <= 1/2, 2 (1 - p) above.
