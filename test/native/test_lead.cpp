@@ -142,6 +142,27 @@ TEST(Lead, TheValleyIsTurnedOnceWhereThePresentReferenceTurns) {
   EXPECT_LT(worst, 0.013);
 }
 
+// After the sine's top the wire reaches its cooling stage (T_MSi) while the reference already
+// falls; from there it moves with its temperature. A path still lead_s ahead of the reference
+// carried it below the falling reference at once, as fast as it cooled (0.031 mm with the sine's
+// 5.25 s lead, 0.015 mm with 3.25 s), and the PID, which may not heat a cooling branch past V_hold,
+// caught it late. On the cooling stage the path is the present reference's: the wire comes down
+// onto it. Rig-like, float, the board's lead and gains; the falling halves after the first period.
+TEST(Lead, OnTheCoolingStageTheWireFollowsThePresentReference) {
+  RunSetup s = setup(sma::Mode::FeedforwardPid, true, 0.0);
+  s.lead = sma::lead_for(sma::RefKind::Sine);
+  const std::vector<Sample> r = sma_host::run_closed_loop<float>(s);
+  const double P = s.reference.sine_period_s;
+  double below = 0.0;  // the deepest the wire went below a falling reference
+  for (size_t k = 1; k < r.size(); ++k)
+    if (r[k].t >= P && r[k].ref < r[k - 1].ref) below = std::max(below, r[k].ref - r[k].truth);
+  std::printf("below the falling reference: %.4f mm\n", below);
+  // The sensor's noise (2 um) and delay, and the V_hold cap's (Controller): 3 ADC steps.
+  EXPECT_LT(below, 0.006);
+  const Metrics m = metrics(s, r);
+  std::printf("whole run: max %.4f / RMS %.5f mm\n", m.max_mm, m.rms_mm);
+}
+
 // A hold reached on the ride (the reference's fraction equals the memory's, up to rounding) is
 // still ridden in every scalar: the board's float decides as the host's double. A ramp to a hold,
 // then a ramp down (a user's traj); the lead of a trajectory (3 s). With the memory's fraction

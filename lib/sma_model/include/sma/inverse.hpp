@@ -34,7 +34,11 @@ namespace sma {
 
 struct InverseConfig {
   double dt = 0.01;            // tick, s
-  double rate_filter_s = 0.1;  // time constant of the desired-temperature low-pass, s
+  // Time constant of the desired-temperature low-pass, s: the path lags a moving reference by
+  // it. Where the lead's ride follows a climbing reference the PID stays out (Controller), so
+  // the lag is the ride's error: 0.3 s was 0.008 mm behind the paper's sine there; 0.1 s keeps
+  // a jump's heat spread over 10 ticks (docs/control.md section 42 has the scan).
+  double rate_filter_s = 0.1;
   double track_s = 0.5;        // time constant of the pull of the wire onto the path, s
   double v_max = 2.0;          // the heater's limit, V (eq 18): the model wire sees it too
   double deadband_mm = 1e-4;   // the reference must come back this far from its last extreme
@@ -87,27 +91,24 @@ class InverseModel {
   T step(T u) { return step_(u, u, false, false); }
   // The same with the known future (LeadConfig): `now`, the present reference; `ahead`, the
   // reference lead_s ahead; `peak`, the highest reference of the next few seconds.
-  // - The cooling lead: the inverse reads the lower of now and ahead, so its cooling branch
-  //   starts lead_s before the reference falls (cooling is passive and slow).
+  // - The cooling lead: while the branch heats or rides the rise (the memory above its loop's
+  //   T_MSi, eqs 5-7: the wire must cool before it moves), the inverse reads the lower of now and
+  //   ahead, so its cooling branch starts lead_s before the reference falls (cooling is passive
+  //   and slow). That turn takes the path to the point ahead's temperature on the cooling stage
+  //   (eq 16, below T_MSi). From there the wire moves with its temperature (eq 11), and a path
+  //   lead_s ahead would carry it below the present reference (0.02 mm after the paper's sine's
+  //   top): on the cooling stage the inverse reads the present reference, and the memory holds
+  //   where the turn took it until the present reference comes down to it (eq 16 does not raise
+  //   T on a cooling branch).
   // - No turn against the future: while ahead lies below now the branch does not turn to
-  //   heating, while it lies above, not to cooling. At a valley the lower of the two turns up
-  //   when the point ahead passes the valley, lead_s early, and down again when the present
-  //   reference passes below it; followed, the wire was heated, cooled and heated again. The turn
-  //   to heating now comes when the point ahead rises past the present reference, half the lead
-  //   before a symmetric valley: the wire, heated from its cooling curve, crosses the flat stage
-  //   to the heating curve (eq 4, ~3 s at V_max) without moving while the reference turns.
+  //   heating, while it lies above, not to cooling. At a valley the wire is on the present
+  //   reference's path and turns to heating once, when the present reference comes back up past
+  //   its lowest point (the deadband). (A turn on the point ahead, half the lead early, held the
+  //   wire on the flat stage above the falling reference, then past the rise.)
   // - The peak rule: a heating stops where the minor-loop rise (eqs 5-6) of a reversal at the
   //   present point would carry the wire to the peak: the branch turns to cooling and the wire
   //   rides the rise up (lower temperature, higher fraction) while the reference still climbs,
   //   instead of being heated to the peak and rising past it when the cooling starts (Fig. 12).
-  // - The lead ends where the wire moves: the point ahead is read while the memory is still
-  //   above its loop's T_MSi (the rise and the flat stage, eqs 5-7: the wire must cool before it
-  //   moves, the lead's reason). On the cooling stage (eq 11) the wire moves with its
-  //   temperature, and a path lead_s ahead would carry it below the present reference (0.02 mm
-  //   after the paper's sine's top); there the inverse reads the present reference, and the
-  //   memory holds where the point ahead took it until the present reference comes down to it
-  //   (eq 16 does not raise T on a cooling branch). At a valley the wire is then on the
-  //   present reference's path and turns to heating with it.
   // (`peak_rule` false: step(now). The references are positions on the stroke, >= 0.)
   T step(T now, T ahead, T peak, bool peak_rule) {
     const bool lower = peak_rule && above(now, ahead);
@@ -117,8 +118,8 @@ class InverseModel {
 
   // (The two inline into one body each: the paper's step(u) compiles to the code it had, the
   // rule folded away, flash on the Uno; a board with the lead carries only the second.)
-  // `lower`: the future lies lower (u is the point ahead, or the present reference where the
-  // lead is over).
+  // `lower`: the future lies lower (u is the point ahead, or on the cooling stage the present
+  // reference).
   __attribute__((always_inline)) inline T step_(T u, T peak, bool peak_rule, bool lower) {
     advance_model();  // the last tick's, where the caller did not run it between ticks
     if (!is_finite(u)) u = u_prev_;  // hold the last reference on NaN

@@ -163,7 +163,8 @@ class ReferenceGen {
   const Reference& config() const { return r_; }
 
  private:
-  // Every kind but the sine at t seconds (at_tick has the sine's own path).
+  // Every kind but the sine at t seconds (at_tick has the sine's own path: the sine's case out
+  // of at_tick's code, where the Q16.16 image's build cannot prove it dead, -22 B there).
   T at_other(double t) const {
     switch (r_.kind) {
       case RefKind::MultiStep: {

@@ -99,8 +99,8 @@ struct Settings {
   double tlim_C = 110.0;
 #if SMA_CONSOLE_LEAD
   // `mode ffpid`'s heating/cooling trade-off on step, sine and traj (lead F): the cooling lead
-  // as a factor of the tuned one (sma::lead_for: 10 s on step, 3.25 s on sine and traj); 0: the
-  // paper's inverse + PID.
+  // as a factor of the tuned one (sma::lead_for: 10 s on step, 5.25 s on sine, 3.25 s on traj);
+  // 0: the paper's inverse + PID.
   double lead = 1.0;
 #else
   static constexpr double lead = 0.0;
