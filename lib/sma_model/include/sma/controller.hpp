@@ -74,12 +74,11 @@ struct LeadConfig {
 
 // The lead a reference gets (the board's, and every benchmark's that runs the lead as the board
 // does): 10 s on the multi-step (tune_lead's, bench_tracking, docs/control.md section 31); 5.25 s
-// on the sine (section 42: the best of a 0.25 s grid on the rig-like sine since the lead's path
-// ends on the cooling stage); 3.25 s on a trajectory: a user's trajectory with a short hold
-// before a long fall loses from 3.5 s on (its max error 0.52 -> 0.72 mm; section 38); none on a
-// constant (it has no future).
+// on the sine and a trajectory, one lead for both (section 42: the best of a 0.25 s grid on the
+// rig-like sine since the lead's path ends on the cooling stage; a user's trajectory, 3.25 s
+// before, gains on the own plant and loses on plant B); none on a constant (it has no future).
 constexpr LeadConfig lead_for(RefKind k) {
-  return LeadConfig{k == RefKind::MultiStep ? 10.0 : k == RefKind::Constant ? 0.0 : k == RefKind::Sine ? 5.25 : 3.25, LeadConfig().peak_window_s};
+  return LeadConfig{k == RefKind::MultiStep ? 10.0 : k == RefKind::Constant ? 0.0 : 5.25, LeadConfig().peak_window_s};
 }
 
 // Tag of a ControllerConfig whose check() the caller has proven at compile time (the board's

@@ -112,7 +112,7 @@ class InverseModel {
   // (`peak_rule` false: step(now). The references are positions on the stroke, >= 0.)
   T step(T now, T ahead, T peak, bool peak_rule) {
     const bool lower = peak_rule && above(now, ahead);
-    const bool early = lower && (heating_ || riding_);
+    const bool early = lower && (heating_ | riding_);  // (`|`: one instruction, flash on the Uno)
     return step_(early ? ahead : now, peak, peak_rule, lower);
   }
 
@@ -136,13 +136,25 @@ class InverseModel {
       // A rising reference that the rise still reaches (above its end, below its top) stays
       // on the cooling branch: it is followed up the rise.
       u_extreme_ = u;
-      if (!(peak_rule && !heating_ && on_rise(e_u))) heating_ = !heating_;
+      if (!(peak_rule && !heating_ && on_rise(e_u))) {
+        heating_ = !heating_;
+      }
     }
     // The peak rule: only while the reference still climbs towards the peak (a hold is not a
-    // peak) and the present heating transformed (a rise exists: its top above eps).
-    if (peak_rule && heating_ && memory_.heating() && above(peak, u + deadband_)) {
-      const CoolingLoop<T>& L = memory_.prepare_cooling_shape();  // (top needs no rates)
-      if (L.top > memory_.eps() && !(mech_.fraction(peak) > L.top)) heating_ = false;
+    // peak), and once the heating it stops has been applied: the model wire (eq 1 under V1) is
+    // on the path, within kApplied_K. A reversal opens a loop with its rise (eqs 5-6) only after
+    // a heating that transformed, and the rise's height is then the loop's (j_i at T_i) however
+    // little it transformed. At a valley the path jumps onto the heating curve at the present
+    // fraction (eq 15) while the wire still crosses the flat stage (eq 4, ~2 s at V_max); a rule
+    // applied to the path alone stopped that heating where the wire, a hair behind the model,
+    // had transformed nothing: it never rose (a 0.45-0.55 mm sine: parked 0.1 mm below it on
+    // half the noise seeds; the paper's wire on a 100 s sine: 0.07 mm RMS). On a steady rise
+    // the model wire trails the path by rate_filter_s: ~0.03 K on the paper's sine.
+    if (peak_rule && heating_ && memory_.heating() && !(T_m_ < T_f_ - T(kApplied_K)) &&
+        above(peak, u + deadband_)) {
+      // (The heating transformed, so a reversal opens a loop at the present point, top = eps +
+      // j_i; where j_i is nil, the peak, above u, is above the top.)
+      if (!(mech_.fraction(peak) > memory_.prepare_cooling_shape().top)) heating_ = false;  // (top needs no rates)
     }
 
     // Eq 14 then eq 15 or 16. With thermal expansion eq 14 needs the temperature it leads to,
@@ -254,6 +266,7 @@ class InverseModel {
 
  private:
   static constexpr int kExpansionSteps = 3;
+  static constexpr double kApplied_K = 0.1;  // the peak rule's model wire on its path (step())
 
   // Fraction e is on the rise of the memory's loop from where the memory is: between the
   // rise's end and its top, the memory still above the rise's end temperature T_ii.

@@ -99,7 +99,7 @@ struct Settings {
   double tlim_C = 110.0;
 #if SMA_CONSOLE_LEAD
   // `mode ffpid`'s heating/cooling trade-off on step, sine and traj (lead F): the cooling lead
-  // as a factor of the tuned one (sma::lead_for: 10 s on step, 5.25 s on sine, 3.25 s on traj);
+  // as a factor of the tuned one (sma::lead_for: 10 s on step, 5.25 s on sine and traj);
   // 0: the paper's inverse + PID.
   double lead = 1.0;
 #else
