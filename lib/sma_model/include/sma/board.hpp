@@ -708,7 +708,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     }
     const RefKind kind = state_.s.run_kind;
     // The lead: `lead F` times the tuned one of the reference's kind (lead_for), truncated to
-    // ticks (exact for the tuned one).
+    // ticks (exact for the tuned one; the ticks as an integer, 2-byte constants).
     const uint16_t tuned = static_cast<uint16_t>(kind == RefKind::MultiStep ? lead_for(RefKind::MultiStep).lead_ticks(dt)
                                                                             : lead_for(RefKind::Sine).lead_ticks(dt));
     *v_.x.future() = gen().lookahead(k, trunc_u32(state_.s.lead * tuned), LeadConfig().sample_ticks(dt), dt, lead);

@@ -136,9 +136,7 @@ class InverseModel {
       // A rising reference that the rise still reaches (above its end, below its top) stays
       // on the cooling branch: it is followed up the rise.
       u_extreme_ = u;
-      if (!(peak_rule && !heating_ && on_rise(e_u))) {
-        heating_ = !heating_;
-      }
+      if (!(peak_rule && !heating_ && on_rise(e_u))) heating_ = !heating_;
     }
     // The peak rule: only while the reference still climbs towards the peak (a hold is not a
     // peak), and once the heating it stops has been applied: the model wire (eq 1 under V1) is
@@ -152,8 +150,9 @@ class InverseModel {
     // the model wire trails the path by rate_filter_s: ~0.03 K on the paper's sine.
     if (peak_rule && heating_ && memory_.heating() && !(T_m_ < T_f_ - T(kApplied_K)) &&
         above(peak, u + deadband_)) {
-      // (The heating transformed, so a reversal opens a loop at the present point, top = eps +
-      // j_i; where j_i is nil, the peak, above u, is above the top.)
+      // (top: the loop a reversal at the present point opens. The test that it lies above eps, a
+      // heating that transformed, went with the gate: on the tracking benches no run reaches
+      // the rule after a heating that did not, docs/control.md section 42; flash on the Uno.)
       if (!(mech_.fraction(peak) > memory_.prepare_cooling_shape().top)) heating_ = false;  // (top needs no rates)
     }
 
