@@ -3,7 +3,7 @@
 // models of it from none to exact, (c) the end-to-end flow's wire (tools/vrig/e2e_flow.py WIRE:
 // a hidden non-linear convection) with the model `sma fit` leaves without that effect. Rig-like, float (the firmware's scalar), default settings
 // of every controller (console::default_gains, PreviewConfig()), true position, whole run; inverse
-// + PID with the known future ("lead") at the board's leads (sma::lead_for: 3.25 s on the sine,
+// + PID with the known future ("lead") at the board's leads (sma::lead_for: 5.25 s on the sine,
 // 10 s on the multi-step) and the firmware's inverse + PID gains. The
 // preview also in Q16.16 (the Uno's scalar) on the exact model and the wrong-h wires: its
 // heat-loss observer (heat_gain.hpp) against float's.

@@ -3,7 +3,7 @@
 // the thermal discretisation (RK4 sub-steps vs exact step) and, with the literal reading, in
 // the re-heat rule of the hysteresis. Rig-like and ideal conditions of model.md, the paper's
 // sine and multi-step; PID alone, inverse + PID, inverse + PID with the known future ("lead":
-// the board's leads, sma::lead_for, 3.25 s sine / 10 s steps) and preview, each with the
+// the board's leads, sma::lead_for, 5.25 s sine / 10 s steps) and preview, each with the
 // firmware's default settings (console::default_gains, PreviewConfig()), double and float. For comparison the same
 // controllers on the library's own plant. Prints a Markdown table and writes JSON.
 //

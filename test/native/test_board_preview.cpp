@@ -260,7 +260,7 @@ TEST(BoardPreview, LeavingThePreviewKeepsTheTemperatureEstimate) {
 
 namespace {
 // Inverse + PID with the known future on the board (Rig::lead(): `mode ffpid` on a reference,
-// the lookahead between ticks, lead 3.25 s on the sine and 10 s on steps): the same issue-13
+// the lookahead between ticks, lead 5.25 s on the sine and 10 s on steps): the same issue-13
 // comparison as the Uno FIL test fil_lead, on the board's own loop (rig-like wire, its ADC and PWM),
 // against PID alone and the paper's inverse + PID (`lead 0`) on the same board.
 TEST(BoardLead, BeatsPidAloneAndInversePidOnTheBoard) {
