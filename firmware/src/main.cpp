@@ -271,7 +271,7 @@ static void __attribute__((noinline)) SMA_OWN_OPTIONS poll_serial() {
 
 #if RIG_FEATURE_PREVIEW
 // A plan pass starts only while >= 1.5 ms remain before the next tick (kPassSlot, in Timer2 counts
-// of 4 us): a grid step takes ~8-35 k cycles (0.5-2.2 ms), the long ones early in the tick; the
+// of 4 us): a grid step takes ~8-27 k cycles (0.5-1.7 ms), the long ones early in the tick; the
 // tick's first pass (the lead sample, <= ~49 k) comes right after the tick. The telemetry row
 // (<= ~16 k cycles, 1 ms) waits for the passes and is written while >= 1.25 ms remain (kRowSlot).
 // Timer2's count says how far into the current millisecond it is; a compare match not yet serviced

@@ -61,7 +61,7 @@ namespace sma {
 // The preview's plan passes after each tick (Board::plan()) are its config's
 // PreviewConfig::plan_passes(): the next tick's lead sample, then steps_per_tick grid steps
 // (PreviewController::plan_step). On the 16 MHz Mega the passes (the lead <= ~50 k cycles, a grid
-// step ~8-35 k) and the tick (<= 16 k; the telemetry row after the passes) fit in the 10 ms tick
+// step ~8-27 k) and the tick (<= 16 k; the telemetry row after the passes) fit in the 10 ms tick
 // (160 k cycles); a tick that comes first is counted (Board::plan_short()).
 
 namespace detail {
@@ -373,7 +373,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
   }
 
   // Between ticks, when the caller has ~2 ms before the next one: one bounded step of the
-  // preview's plan (PreviewController::plan_step, <= ~35 k AVR cycles in float), at most
+  // preview's plan (PreviewController::plan_step, <= ~27 k AVR cycles in float), at most
   // plan_passes() after a tick, fewer when a plan completes. True when the tick's planning is done
   // (then a call does nothing): the caller may call it as often as its time allows. Never from an
   // interrupt that can preempt control().

@@ -218,6 +218,7 @@ class PreviewCore {
   static constexpr uint8_t kNever = 255;  // candidate: switch only when the reference turns
   static constexpr uint8_t kObserveTicks = 10;  // ticks between samples of the heat-loss observer
   static constexpr uint8_t kFar = 4;  // knots of the look beyond the horizon (lookahead_s)
+  static_assert(kCandidates >= kFar + 2, "step_peak: one step in each of kFar candidates after the second");
   // The re-approach's re-heat (reheat_): none; the wire cooling down its loop to the hold; the
   // wire back at the hold, the re-heat due if the reference's next move is up.
   static constexpr uint8_t kReheatNone = 0, kReheatCooling = 1, kReheatDue = 2;
@@ -885,7 +886,7 @@ class PreviewCore {
 
   // The first hold (>= 2 s) in the plan's reference whose next move is down (in the plan's
   // samples, else at a knot beyond the horizon), and its peak T_i*: the fixed point
-  // T = eq 15 (eps_t - j(T)) whose rise (eqs 5-6) ends at the hold, one damped step per call.
+  // T = eq 15 (eps_t - j(T)) whose rise (eqs 5-6) ends at the hold (step_peak).
   // The second candidate, which samples nothing else, does one part per grid step (j_ <= kFar).
   template <class Future>
   void look_far(const Future& future) {
@@ -910,6 +911,13 @@ class PreviewCore {
         far_open_ = false;
       }
     }
+    if (j_ == kFar) step_peak();
+  }
+  // One damped step of that fixed point, kFar + 1 a plan: the second candidate's last look
+  // (its verdict known), then the first grid step of each of the next kFar candidates. A step
+  // (~15-20 k AVR cycles) is as heavy as a grid step or more: steps on consecutive grid steps
+  // made a board's tick (its lead sample and four grid steps) longer than the tick.
+  SMA_PREVIEW_NOINLINE void step_peak() {
     if (!(down_next_ || far_open_)) return;
     const T eps_t = fraction(hold_ref_ + rise_margin_ - d_);
     if (peak_T_ < T(0)) peak_T_ = curves_.heat_temperature(eps_t);
@@ -927,6 +935,8 @@ class PreviewCore {
       r_[j_] = is_finite(r) ? on_stroke(r) : (j_ ? r_[j_ - 1] : T(0));
     } else if (cand_ == 1 && j_ <= kFar && look_far_) {
       look_far(future);
+    } else if (j_ == 0 && cand_ >= 2 && cand_ <= kFar + 1 && look_far_) {
+      step_peak();
     }
     const T r = r_[j_];
     if (sim_heat_ && capped(r) && at_cap(sim_T_)) {  // the peak of a hold approached on the rise
