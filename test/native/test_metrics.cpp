@@ -62,6 +62,18 @@ TEST(Metrics, StepNeverReachedCountsItsShortfall) {
   EXPECT_EQ(m.overshoot_pct, 0.0);
 }
 
+// A step whose position passes through the setpoint in the step's second half (0.03 mm/s, the
+// re-approach of a wire cooled below it) and comes to rest 0.03 mm above it: it never rests on
+// the setpoint, so the steady-state error is not nil (one mean over a 2 s window centred on the
+// crossing was), and the smallest it can be is the error of a second beside the crossing.
+TEST(Metrics, StepPassingThroughTheSetpointIsNoSteadyState) {
+  const auto run = run_of(2500, [](double) { return 0.2; },
+                          [](double t) { return 0.17 + 0.03 * fmin(fmax(t - 16.0, 0.0), 2.0); });
+  const sma_host::Metrics m = sma_host::step_metrics(run, 25.0);
+  // The best window is 16-18 s: its seconds' means are -0.015 and +0.015 mm (one mean: 0).
+  EXPECT_NEAR(m.sse_mm, 0.015, 0.0005);
+}
+
 // A down-step 0.8 -> 0.5 mm at t = 10 s where the wire first rises to 0.88 mm in 1 s (the
 // minor-loop rise) and then falls linearly to 0.5 mm by t = 13 s: the whole-run figures see the
 // 0.38 mm error and the 0.08 mm wrong-way move; the paper-style cooling figure, which counts

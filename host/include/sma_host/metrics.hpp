@@ -14,7 +14,8 @@
 //    setpoint still holds: wrong_way_mm, measured after the step, does not see that move);
 //  - settle_s / settle_max_s: steps: mean / worst time to come within 5 % of the step and stay.
 //  - sse_mm: steps: for each step, the smallest |mean error| over a 2 s window (0.5 s apart) in
-//    the step's second half; the max over steps. A step that never sits on its setpoint has
+//    the step's second half, each of the window's seconds apart (the larger of the two: a
+//    position passing through the setpoint is not at rest on it); the max over steps. A step that never sits on its setpoint has
 //    a large one; a controller that leaves a setpoint early for the next move (preview) is not
 //    charged for it here (the whole-run figures charge it).
 // Any reference (a user's trajectory: ramps, holds, jumps; reference_metrics()): the same
@@ -93,14 +94,19 @@ inline double steady_error(const std::vector<Sample>& run, size_t k0, size_t end
   const double t0 = run[k0].t, t1 = run[end - 1].t;
   double best = INFINITY;
   for (double w = 0.5 * (t0 + t1); w + 2.0 <= t1 + 1e-9; w += 0.5) {
-    double sum = 0;
-    long n = 0;
+    // Each second of the window apart: the larger |mean error| of the two. A position passing
+    // through the setpoint has errors of both signs, and one mean over the whole window called
+    // that a nil error; noise still averages out within each second.
+    double sum[2] = {0, 0};
+    long n[2] = {0, 0};
     for (size_t k = k0; k < end; ++k)
       if (run[k].t >= w - 1e-9 && run[k].t < w + 2.0 - 1e-9) {
-        sum += err_of(run[k], measured);
-        ++n;
+        const int half = run[k].t >= w + 1.0 - 1e-9;
+        sum[half] += err_of(run[k], measured);
+        ++n[half];
       }
-    if (n) best = fmin(best, fabs(sum / static_cast<double>(n)));
+    if (n[0] && n[1])
+      best = fmin(best, fmax(fabs(sum[0] / static_cast<double>(n[0])), fabs(sum[1] / static_cast<double>(n[1]))));
   }
   return std::isfinite(best) ? best : 0.0;
 }
