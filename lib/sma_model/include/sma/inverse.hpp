@@ -30,11 +30,11 @@
 #include "scalar.hpp"
 #include "thermal.hpp"
 
-// The lead's arrival (InverseModel::step's cooling lead waits for the heating to be applied;
-// heating_position() on the flat stage): 0 leaves it out of an image (the Q16.16 Uno image: ~90 B
-// of flash it does not have; docs/control.md section 45).
-#ifndef SMA_LEAD_ARRIVAL
-#define SMA_LEAD_ARRIVAL 1
+// The model wire's position on the flat stage (InverseModel::heating_position, the lead's PID
+// target): 0 leaves it out of an image (the Q16.16 Uno image: ~50 B of flash it does not have;
+// docs/control.md section 45).
+#ifndef SMA_LEAD_FLAT_STAGE
+#define SMA_LEAD_FLAT_STAGE 1
 #endif
 
 namespace sma {
@@ -90,7 +90,7 @@ class InverseModel {
     eps_f_ = memory_.eps();
     u_prev_ = mech_.displacement(memory_.eps(), T0);
     u_extreme_ = u_prev_;
-#if SMA_LEAD_ARRIVAL
+#if SMA_LEAD_FLAT_STAGE
     u_turn_ = u_prev_;
 #endif
     heating_ = true;
@@ -101,19 +101,18 @@ class InverseModel {
   T step(T u) { return step_(u, u, false, false); }
   // The same with the known future (LeadConfig): `now`, the present reference; `ahead`, the
   // reference lead_s ahead; `peak`, the highest reference of the next few seconds.
-  // - The cooling lead: while the branch rides the rise, or heats with the model wire already up
-  //   to the point ahead (within kArrived_mm; the memory above its loop's T_MSi, eqs 5-7: the
-  //   wire must cool before it moves), the inverse reads the lower of now and ahead, so its cooling branch starts lead_s before the reference falls (cooling is passive
+  // - The cooling lead: while the branch heats or rides the rise (the memory above its loop's
+  //   T_MSi, eqs 5-7: the wire must cool before it moves), the inverse reads the lower of now and
+  //   ahead, so its cooling branch starts lead_s before the reference falls (cooling is passive
   //   and slow). That turn takes the path to the point ahead's temperature on the cooling stage
   //   (eq 16, below T_MSi). From there the wire moves with its temperature (eq 11), and a path
   //   lead_s ahead would carry it below the present reference (0.02 mm after the paper's sine's
   //   top): on the cooling stage the inverse reads the present reference, and the memory holds
   //   where the turn took it until the present reference comes down to it (eq 16 does not raise
-  //   T on a cooling branch). A heating that has not brought the model wire up to the point
-  //   ahead (a jump up held for less than the lead, the wire still crossing the flat stage) goes
-  //   on: turned early, the cooling branch parked the wire where it was, below both references,
-  //   and the PID may not heat a cooling branch (a user's trajectory: 0.30 mm for 6 s, then 0.13
-  //   mm for 14 s).
+  //   T on a cooling branch). (A jump up held for less than the lead is therefore not climbed:
+  //   the branch turns to cooling with the wire still on the flat stage; waiting for the
+  //   heating to arrive climbs it, but then a jump of ~1 s locks its loop's rise above the next
+  //   hold: docs/control.md section 45.)
   // - No turn against the future: while ahead lies below now the branch does not turn to
   //   heating, while it lies above, not to cooling. At a valley the wire is on the present
   //   reference's path and turns to heating once, when the present reference comes back up past
@@ -125,7 +124,7 @@ class InverseModel {
   //   instead of being heated to the peak and rising past it when the cooling starts (Fig. 12).
   // (`peak_rule` false: step(now). The references are positions on the stroke, >= 0.)
   T step(T now, T ahead, T peak, bool peak_rule) {
-    const bool lower = peak_rule && above(now, ahead) && !(SMA_LEAD_ARRIVAL && T_m_ < T_f_ - T(kArrived_K));
+    const bool lower = peak_rule && above(now, ahead);
     const bool early = lower && (heating_ | riding_);  // (`|`: one instruction, flash on the Uno)
     return step_(early ? ahead : now, peak, peak_rule, lower);
   }
@@ -149,7 +148,7 @@ class InverseModel {
     if ((heating_ ? u < u_extreme_ - deadband_ : u > u_extreme_ + deadband_) && !(peak_rule && heating_ != lower)) {
       // A rising reference that the rise still reaches (above its end, below its top) stays
       // on the cooling branch: it is followed up the rise.
-#if SMA_LEAD_ARRIVAL
+#if SMA_LEAD_FLAT_STAGE
       if (!heating_) u_turn_ = u_extreme_;
 #endif
       u_extreme_ = u;
@@ -264,9 +263,9 @@ class InverseModel {
   // temperature (eq 2), or still at the fraction of the valley the heating turned at while it
   // crosses the flat stage (eq 4). The position the feedforward has brought a wire like the
   // model's to so far. (The curve alone read ~0 mm there: the PID, acting on that gap, cut the
-  // heating of a wire resting at 0.21 mm after a jump up to 0.51 mm to V_hold.)
+  // heating of a wire resting at 0.21 mm after a jump up to 0.51 mm to V_hold for 1.2 s.)
   T heating_position() const {
-#if SMA_LEAD_ARRIVAL
+#if SMA_LEAD_FLAT_STAGE
     return max(mech_.displacement(curves_.eps_heat(T_m_)), u_turn_);
 #else
     return mech_.displacement(curves_.eps_heat(T_m_));
@@ -292,10 +291,6 @@ class InverseModel {
  private:
   static constexpr int kExpansionSteps = 3;
   static constexpr double kApplied_K = 0.1;  // the peak rule's model wire on its path (step())
-  // The cooling lead's heating applied (step()): the model wire within this of its path. A jump
-  // up starts it ~30 K below (the flat stage, eq 4); leaving the peak rule's ride it trails by
-  // up to ~2 K (a 0.0125 mm/s ramp's top). (The scan in docs/control.md section 45.)
-  static constexpr double kArrived_K = 3.0;
 
   // Fraction e is on the rise of the memory's loop from where the memory is: between the
   // rise's end and its top, the memory still above the rise's end temperature T_ii.
@@ -326,7 +321,7 @@ class InverseModel {
   Mechanics<T> mech_;
   Hysteresis<T> memory_;
   WireStep<T> wire_step_;
-#if SMA_LEAD_ARRIVAL
+#if SMA_LEAD_FLAT_STAGE
   T u_turn_;  // the reference's valley where the branch last turned to heating (heating_position)
 #endif
 };
