@@ -115,8 +115,8 @@ def main():
         ("inverse + PID: the reference ends on the last point", abs(q["ref_last_mm"] - points[-1][1]) < 1e-3),
     ]
     if "pid" in res:
-        # The Uno's default against PID alone on this trajectory: its jump held shorter than the
-        # lead parked the wire below it before the lead's arrival (docs/control.md section 45).
+        # The Uno's default against PID alone on this trajectory: its PID cut a jump's heating on
+        # the flat stage before the model wire kept its position there (docs/control.md section 45).
         checks.append(("the default (lead) whole-run RMS not above PID alone's", p["rms_mm"] <= res["pid"]["rms_mm"]))
     for n, ok in checks:
         print(("PASS " if ok else "FAIL ") + n)
