@@ -270,6 +270,29 @@ TEST(Lead, TheHeatingOfAJumpIsNotCutOnTheFlatStage) {
   }
 }
 
+// The same trajectory after the jump: 1.2 s into it the cooling lead turns the inverse to the
+// 0.335 mm hold ahead, and its model wire cools along its loop to that hold, while the wire, its
+// heating cut short on the flat stage (eq 4), stays at 0.21 mm. On a cooling branch cooling
+// cannot raise the wire and the PID may not heat past V_hold: before the inverse restarted on a
+// parked wire, the wire sat 0.126 mm under the hold for all its 14.7 s.
+TEST(Lead, AWireParkedUnderItsHoldIsTakenUp) {
+  for (int f = 0; f < 2; ++f) {
+    RunSetup s = setup(sma::Mode::FeedforwardPid, false, 0.0);
+    s.reference = sma::Reference();
+    s.reference.kind = sma::RefKind::Trajectory;
+    for (const auto& p : {std::make_pair(0.0, 0.345), {7.95, 0.345}, {7.96, 0.212}, {14.41, 0.212}, {14.42, 0.513},
+                          {20.69, 0.513}, {20.70, 0.335}, {35.37, 0.335}})
+      ASSERT_TRUE(s.reference.add_point(p.first, p.second));
+    s.lead = sma::lead_for(s.reference.kind);
+    const std::vector<Sample> r = f ? sma_host::run_closed_loop<sma::Fixed>(s) : sma_host::run_closed_loop<float>(s);
+    double worst = 0.0;
+    for (const Sample& x : r)
+      if (x.t >= 20.7 && x.t < 35.3) worst = std::max(worst, std::fabs(x.truth - 0.335));
+    std::printf("%s: worst error over the 0.335 mm hold %.4f mm\n", f ? "Q16.16" : "float", worst);
+    EXPECT_LT(worst, 0.015) << f;  // was 0.126 mm, the whole hold
+  }
+}
+
 TEST(Lead, ConfigRefusesALeadOutOfRange) {
   sma::LeadConfig c;
   c.lead_s = -1.0;

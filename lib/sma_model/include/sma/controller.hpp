@@ -16,6 +16,13 @@
 #include "scalar.hpp"
 #include "thermal.hpp"
 
+// The lead's restart of the inverse on a wire parked under its setpoint (Controller::
+// check_parted); 0 leaves it out of an image (~290 B of the Uno's float flash: the Q16.16 image,
+// at its budget, is built without it).
+#ifndef SMA_LEAD_REANCHOR
+#define SMA_LEAD_REANCHOR 1
+#endif
+
 namespace sma {
 
 // Preview: the controller of preview.hpp (PreviewController), which needs the future of the
@@ -110,6 +117,9 @@ class Controller {
       pid_.start(measurement, T(0), v_ - v1);
     }
     mode_ = m;
+#if SMA_LEAD_REANCHOR
+    check_due_ = false;  // a parted wire is the old mode's
+#endif
     prepare_hold();  // the mode's first tick, too, finds V_hold computed
   }
   Mode mode() const { return mode_; }
@@ -131,6 +141,9 @@ class Controller {
   // possible reversal (InverseModel::advance_model, prepare_reversal), work that the next tick
   // would otherwise do inside the control section. Changes no number.
   void prepare_next_tick() {
+#if SMA_LEAD_REANCHOR
+    if (check_due_) check_parted();
+#endif
     if (mode_ == Mode::Feedforward || mode_ == Mode::FeedforwardPid) {
       inverse_.advance_model();
       inverse_.prepare_reversal();
@@ -164,6 +177,9 @@ class Controller {
   // `cfg_ok`: the config's check(), done by the caller (at compile time for CheckedConfig).
   Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg, bool cfg_ok)
       : valid_(cfg_ok && p.check() == nullptr && fx.check() == nullptr),
+#if SMA_LEAD_REANCHOR
+        parted_limit_(parted_ticks(cfg.dt)),
+#endif
         inverse_(p, fx, cfg.inverse, cfg.dt, cfg.v_max),  // the controller's tick and V_max
         pid_(cfg.gains, cfg.dt),
         dt_(cfg.dt) {
@@ -188,6 +204,9 @@ class Controller {
     // fraction. (Eq 1 of the paper needs neither, and WireStep ignores both there; the fraction
     // is read on every model all the same: the test of the model's kind cost 14 B of the Uno's
     // flash, more than its ~0.6 k cycles of the tick are worth.)
+#if SMA_LEAD_REANCHOR
+    if (kLead && check_due_) check_parted();  // not done between ticks (a host loop)
+#endif
     T d_eps = T(0);
     if (is_finite(measured)) {
       d_eps = (inverse_.mechanics().fraction(measured, T_wire_) - eps_meas_) * T(kFractionFilter);  // (T(x): folded at compile time)
@@ -213,6 +232,13 @@ class Controller {
       case Mode::Feedforward:
       case Mode::FeedforwardPid: {
         // (One call for the two modes: it inlines once, flash on the Uno.)
+#if SMA_LEAD_REANCHOR
+        if (kLead && lead) {  // (checked between ticks: check_parted())
+          part_ref_ = above(ref, future->ahead) ? future->ahead : ref;
+          part_meas_ = measured;
+          check_due_ = true;
+        }
+#endif
         v1_ = feedforward<kLead>(ref, future, lead);  // 0..V_max: the inverse has the same V_max
         if (mode_ == Mode::Feedforward) break;
         // PID limits: V1 + V2 inside 0..V_max (eq 18; the anti-windup sees the clamp), and
@@ -247,6 +273,28 @@ class Controller {
     return clamp(v1_ + v2_, T(0), v_max_);  // NaN -> 0 V (clamp maps it to lo)
   }
 
+#if SMA_LEAD_REANCHOR
+  // A wire parked under its setpoint on a cooling branch: the inverse's model wire cooled to the
+  // reference along its loop, the wire did not follow (a heating cut short, as a jump up held
+  // shorter than the lead: it never left the flat stage, eq 4). Cooling cannot raise it and the
+  // PID may not heat past V_hold there, so nothing brings the two together: the inverse restarts
+  // at the wire (as a mode change does) once the wire has stayed kPartedMm under the reference,
+  // and under the point lead_s ahead, for kPartedS; the reference above it then lies on a
+  // heating branch. Not while the peak rule rides the rise (eqs 5-6): there the wire is meant to
+  // rise by cooling.
+  // (Between ticks, prepare_next_tick(), else at the next tick's start: the restart stays out of
+  // the control section.)
+  __attribute__((noinline)) void check_parted() {
+    check_due_ = false;
+    if (inverse_.heating() || inverse_.riding() || !(part_ref_ - part_meas_ > T(kPartedMm))) {
+      parted_ = 0;
+    } else if (++parted_ >= parted_limit_) {
+      inverse_.reset(T_wire_, inverse_.mechanics().fraction(part_meas_, T_wire_));
+      parted_ = 0;
+    }
+  }
+#endif
+
   // The PID's target while the inverse heats with the known future: a heating kept for the rise
   // ahead of a valley (the future above, the present reference still falling: InverseModel's
   // step) acts on the reference the heating turned at, its extreme: the wire stalls there on the
@@ -273,6 +321,10 @@ class Controller {
   Mode mode_ = Mode::Off;
   bool hold_ready_ = false;
   bool valid_;
+#if SMA_LEAD_REANCHOR
+  bool check_due_ = false;  // the tick's part_ref_, part_meas_ wait for check_parted()
+  uint8_t parted_ = 0, parted_limit_;  // ticks the wire has stayed parted (check_parted), limit
+#endif
   T T_wire_;
   T eps_meas_ = T(0);  // austenite fraction of the measurements, low-passed (kFractionFilter)
   // Its low-pass gain per tick: 1/16, a time constant of 0.16 s at the board's 100 Hz (against
@@ -283,10 +335,21 @@ class Controller {
   T hold_ = T(0);      // thermal_hold() computed between ticks (prepare_next_tick)
   T v_max_;
   T v_open_ = T(0), v_ = T(0), v1_ = T(0), v2_ = T(0);
+#if SMA_LEAD_REANCHOR
+  T part_ref_ = T(0), part_meas_ = T(0);  // min(reference, the point lead_s ahead); measured
+#endif
   // Eq 12 and the wire's tick are the inverse model's (the same parameters, effects and dt):
   // one copy in RAM.
   InverseModel<T> inverse_;
   Pid<T> pid_;
+#if SMA_LEAD_REANCHOR
+  // The wire parked under a cooling branch's reference (check_parted): by more than 25 x the
+  // sensor's 2 um noise, for half a second (in ticks, 1..255).
+  static constexpr double kPartedMm = 0.05, kPartedS = 0.5;
+  static constexpr uint8_t parted_ticks(double dt) {
+    return kPartedS / dt > 254.5 ? 255 : kPartedS / dt < 1.5 ? 1 : static_cast<uint8_t>(kPartedS / dt + 0.5);
+  }
+#endif
   // The tick, s (the PID's gains per tick; the rest of the config lives in what it built, not
   // twice in RAM).
   double dt_;
