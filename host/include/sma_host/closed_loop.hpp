@@ -179,7 +179,9 @@ std::vector<Sample> run_closed_loop_on(PlantT& plant, const RunSetup& s) {
     const uint32_t k = static_cast<uint32_t>(t / s.config.dt + 0.5);
     const sma::Lookahead<T> future = lead ? ref.lookahead(k, lead_ticks, sample_ticks, s.config.dt) : sma::Lookahead<T>{r, r, r};
     const double v = sma::to_double(ctl.step(r, feedback(meas), future, lead));
-    return Command{v, sma::to_double(ctl.v1())};
+    const Command c{v, sma::to_double(ctl.v1())};
+    ctl.prepare_next_tick(lead);  // between ticks, as the board (the lead's check of a parked wire)
+    return c;
   });
 }
 

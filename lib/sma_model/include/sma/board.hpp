@@ -324,7 +324,7 @@ class Board : private detail::PlanPace<detail::rig_preview<Rig>(0)> {
     for (uint8_t i = 0; i < 3; ++i) slot[i] = unstash(slot[i]);
     live_.x.temp_C = to_double(wire_temperature());
     live_.x.fault = safety_.x.fault();
-    ctl().prepare_next_tick();  // a reversal's loop ahead of its tick (Controller)
+    ctl().prepare_next_tick(kLead && v_.x.lead());  // a reversal's loop ahead of its tick (Controller)
     prepare_future(v_.x.ticks_ - v_.x.run_start_ + 1u);  // the next tick's reference, likewise
     if (preview_on()) preview().prepare_next_tick();  // the preview's model wire, likewise
     if (state_.s.tele) {

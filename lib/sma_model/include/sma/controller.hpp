@@ -117,9 +117,6 @@ class Controller {
       pid_.start(measurement, T(0), v_ - v1);
     }
     mode_ = m;
-#if SMA_LEAD_REANCHOR
-    check_due_ = false;  // a parted wire is the old mode's
-#endif
     prepare_hold();  // the mode's first tick, too, finds V_hold computed
   }
   Mode mode() const { return mode_; }
@@ -139,10 +136,15 @@ class Controller {
 
   // Between ticks, after the output is written: the feedforward's model wire and the loop of a
   // possible reversal (InverseModel::advance_model, prepare_reversal), work that the next tick
-  // would otherwise do inside the control section. Changes no number.
-  void prepare_next_tick() {
+  // would otherwise do inside the control section; that part changes no number. With the known
+  // future (`lead`, as the tick's step had it) also the check of a wire parked under its
+  // setpoint (check_parted), which may restart the inverse: a loop with the lead calls this after
+  // every step.
+  void prepare_next_tick(bool lead = false) {
 #if SMA_LEAD_REANCHOR
-    if (check_due_) check_parted();
+    if (lead) check_parted();
+#else
+    (void)lead;
 #endif
     if (mode_ == Mode::Feedforward || mode_ == Mode::FeedforwardPid) {
       inverse_.advance_model();
@@ -177,11 +179,11 @@ class Controller {
   // `cfg_ok`: the config's check(), done by the caller (at compile time for CheckedConfig).
   Controller(const Params& p, const Effects& fx, const ControllerConfig& cfg, bool cfg_ok)
       : valid_(cfg_ok && p.check() == nullptr && fx.check() == nullptr),
+        inverse_(p, fx, cfg.inverse, cfg.dt, cfg.v_max),  // the controller's tick and V_max
+        pid_(cfg.gains, cfg.dt),
 #if SMA_LEAD_REANCHOR
         parted_limit_(parted_ticks(cfg.dt)),
 #endif
-        inverse_(p, fx, cfg.inverse, cfg.dt, cfg.v_max),  // the controller's tick and V_max
-        pid_(cfg.gains, cfg.dt),
         dt_(cfg.dt) {
     T_wire_ = inverse_.thermal().T_a;  // the true ambient, converted once
     v_max_ = inverse_.v_max();         // cfg.v_max, converted once
@@ -204,9 +206,6 @@ class Controller {
     // fraction. (Eq 1 of the paper needs neither, and WireStep ignores both there; the fraction
     // is read on every model all the same: the test of the model's kind cost 14 B of the Uno's
     // flash, more than its ~0.6 k cycles of the tick are worth.)
-#if SMA_LEAD_REANCHOR
-    if (kLead && check_due_) check_parted();  // not done between ticks (a host loop)
-#endif
     T d_eps = T(0);
     if (is_finite(measured)) {
       d_eps = (inverse_.mechanics().fraction(measured, T_wire_) - eps_meas_) * T(kFractionFilter);  // (T(x): folded at compile time)
@@ -232,13 +231,6 @@ class Controller {
       case Mode::Feedforward:
       case Mode::FeedforwardPid: {
         // (One call for the two modes: it inlines once, flash on the Uno.)
-#if SMA_LEAD_REANCHOR
-        if (kLead && lead) {  // (checked between ticks: check_parted())
-          part_ref_ = above(ref, future->ahead) ? future->ahead : ref;
-          part_meas_ = measured;
-          check_due_ = true;
-        }
-#endif
         v1_ = feedforward<kLead>(ref, future, lead);  // 0..V_max: the inverse has the same V_max
         if (mode_ == Mode::Feedforward) break;
         // PID limits: V1 + V2 inside 0..V_max (eq 18; the anti-windup sees the clamp), and
@@ -274,22 +266,21 @@ class Controller {
   }
 
 #if SMA_LEAD_REANCHOR
-  // A wire parked under its setpoint on a cooling branch: the inverse's model wire cooled to the
-  // reference along its loop, the wire did not follow (a heating cut short, as a jump up held
-  // shorter than the lead: it never left the flat stage, eq 4). Cooling cannot raise it and the
-  // PID may not heat past V_hold there, so nothing brings the two together: the inverse restarts
-  // at the wire (as a mode change does) once the wire has stayed kPartedMm under the reference,
-  // and under the point lead_s ahead, for kPartedS; the reference above it then lies on a
-  // heating branch. Not while the peak rule rides the rise (eqs 5-6): there the wire is meant to
-  // rise by cooling.
-  // (Between ticks, prepare_next_tick(), else at the next tick's start: the restart stays out of
-  // the control section.)
+  // A wire parked under its setpoint on a cooling branch: the inverse's path (its memory, eqs
+  // 4-10) cooled to the reference along its loop, the wire did not follow (a heating cut short, as
+  // a jump up held shorter than the lead: it never left the flat stage, eq 4). Cooling cannot
+  // raise the wire and the PID may not heat past V_hold there, so nothing brings the two
+  // together: the inverse restarts at the wire (as a mode change does) once the wire has stayed
+  // kPartedMm under the path for kPartedS; a reference above it then lies on a heating branch.
+  // Not while the peak rule rides the rise (eqs 5-6): there the wire is meant to rise by cooling.
+  // (Between ticks, prepare_next_tick(): a restart stays out of the control section. The wire's
+  // fraction is the measurement's, low-passed: eps_meas_.)
   __attribute__((noinline)) void check_parted() {
-    check_due_ = false;
-    if (inverse_.heating() || inverse_.riding() || !(part_ref_ - part_meas_ > T(kPartedMm))) {
+    if (!(mode_ == Mode::Feedforward || mode_ == Mode::FeedforwardPid) || inverse_.heating() || inverse_.riding() ||
+        !(inverse_.mechanics().g * (inverse_.memory().eps() - eps_meas_) > T(kPartedMm))) {
       parted_ = 0;
     } else if (++parted_ >= parted_limit_) {
-      inverse_.reset(T_wire_, inverse_.mechanics().fraction(part_meas_, T_wire_));
+      inverse_.reset(T_wire_, eps_meas_);
       parted_ = 0;
     }
   }
@@ -321,10 +312,6 @@ class Controller {
   Mode mode_ = Mode::Off;
   bool hold_ready_ = false;
   bool valid_;
-#if SMA_LEAD_REANCHOR
-  bool check_due_ = false;  // the tick's part_ref_, part_meas_ wait for check_parted()
-  uint8_t parted_ = 0, parted_limit_;  // ticks the wire has stayed parted (check_parted), limit
-#endif
   T T_wire_;
   T eps_meas_ = T(0);  // austenite fraction of the measurements, low-passed (kFractionFilter)
   // Its low-pass gain per tick: 1/16, a time constant of 0.16 s at the board's 100 Hz (against
@@ -335,20 +322,18 @@ class Controller {
   T hold_ = T(0);      // thermal_hold() computed between ticks (prepare_next_tick)
   T v_max_;
   T v_open_ = T(0), v_ = T(0), v1_ = T(0), v2_ = T(0);
-#if SMA_LEAD_REANCHOR
-  T part_ref_ = T(0), part_meas_ = T(0);  // min(reference, the point lead_s ahead); measured
-#endif
   // Eq 12 and the wire's tick are the inverse model's (the same parameters, effects and dt):
   // one copy in RAM.
   InverseModel<T> inverse_;
   Pid<T> pid_;
 #if SMA_LEAD_REANCHOR
-  // The wire parked under a cooling branch's reference (check_parted): by more than 25 x the
+  // The wire parked under a cooling branch's path (check_parted): by more than 25 x the
   // sensor's 2 um noise, for half a second (in ticks, 1..255).
   static constexpr double kPartedMm = 0.05, kPartedS = 0.5;
   static constexpr uint8_t parted_ticks(double dt) {
     return kPartedS / dt > 254.5 ? 255 : kPartedS / dt < 1.5 ? 1 : static_cast<uint8_t>(kPartedS / dt + 0.5);
   }
+  uint8_t parted_ = 0, parted_limit_;  // ticks the wire has stayed parted (check_parted), limit
 #endif
   // The tick, s (the PID's gains per tick; the rest of the config lives in what it built, not
   // twice in RAM).
