@@ -242,6 +242,20 @@ TEST(Lead, BeatsPidAloneAndInversePlusPidOverTheWholeRun) {
   }
 }
 
+// The start of a user's trajectory (bench_tracking_excitations' traj-random): a hold, a move down
+// to 0.212 mm, a jump to 0.513 mm held 6.3 s (the lead: 5.25 s), a hold at
+// 0.335 mm; the Uno's default, float or Q16.16.
+std::vector<Sample> jump_after_a_move_down(bool fixed) {
+  RunSetup s = setup(sma::Mode::FeedforwardPid, false, 0.0);
+  s.reference = sma::Reference();
+  s.reference.kind = sma::RefKind::Trajectory;
+  for (const auto& p : {std::make_pair(0.0, 0.345), {7.95, 0.345}, {7.96, 0.212}, {14.41, 0.212}, {14.42, 0.513},
+                        {20.69, 0.513}, {20.70, 0.335}, {35.37, 0.335}})
+    EXPECT_TRUE(s.reference.add_point(p.first, p.second));
+  s.lead = sma::lead_for(s.reference.kind);
+  return fixed ? sma_host::run_closed_loop<sma::Fixed>(s) : sma_host::run_closed_loop<float>(s);
+}
+
 // A user's trajectory (bench_tracking_excitations' traj-random, its start): after a move down to
 // 0.212 mm the reference jumps to 0.513 mm. The heating starts on the flat stage (eq 4), where
 // the model wire keeps the valley's fraction; on a hold approached on the heating branch the PID
@@ -250,14 +264,7 @@ TEST(Lead, BeatsPidAloneAndInversePlusPidOverTheWholeRun) {
 // (0.66 V) until the cooling lead turned the branch 1.2 s later.
 TEST(Lead, TheHeatingOfAJumpIsNotCutOnTheFlatStage) {
   for (int f = 0; f < 2; ++f) {
-    RunSetup s = setup(sma::Mode::FeedforwardPid, false, 0.0);
-    s.reference = sma::Reference();
-    s.reference.kind = sma::RefKind::Trajectory;
-    for (const auto& p : {std::make_pair(0.0, 0.345), {7.95, 0.345}, {7.96, 0.212}, {14.41, 0.212}, {14.42, 0.513},
-                          {20.69, 0.513}, {20.70, 0.335}, {35.37, 0.335}})
-      ASSERT_TRUE(s.reference.add_point(p.first, p.second));
-    s.lead = sma::lead_for(s.reference.kind);
-    const std::vector<Sample> r = f ? sma_host::run_closed_loop<sma::Fixed>(s) : sma_host::run_closed_loop<float>(s);
+    const std::vector<Sample> r = jump_after_a_move_down(f != 0);
     double v_sum = 0.0;
     int n = 0;
     for (const Sample& x : r)
@@ -277,14 +284,7 @@ TEST(Lead, TheHeatingOfAJumpIsNotCutOnTheFlatStage) {
 // parked wire, the wire sat 0.126 mm under the hold for all its 14.7 s.
 TEST(Lead, AWireParkedUnderItsHoldIsTakenUp) {
   for (int f = 0; f < 2; ++f) {
-    RunSetup s = setup(sma::Mode::FeedforwardPid, false, 0.0);
-    s.reference = sma::Reference();
-    s.reference.kind = sma::RefKind::Trajectory;
-    for (const auto& p : {std::make_pair(0.0, 0.345), {7.95, 0.345}, {7.96, 0.212}, {14.41, 0.212}, {14.42, 0.513},
-                          {20.69, 0.513}, {20.70, 0.335}, {35.37, 0.335}})
-      ASSERT_TRUE(s.reference.add_point(p.first, p.second));
-    s.lead = sma::lead_for(s.reference.kind);
-    const std::vector<Sample> r = f ? sma_host::run_closed_loop<sma::Fixed>(s) : sma_host::run_closed_loop<float>(s);
+    const std::vector<Sample> r = jump_after_a_move_down(f != 0);
     double worst = 0.0;
     for (const Sample& x : r)
       if (x.t >= 20.7 && x.t < 35.3) worst = std::max(worst, std::fabs(x.truth - 0.335));

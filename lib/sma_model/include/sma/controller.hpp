@@ -268,7 +268,7 @@ class Controller {
 #if SMA_LEAD_REANCHOR
   // A wire parked under its setpoint on a cooling branch: the inverse's path (its memory, eqs
   // 4-10) cooled to the reference along its loop, the wire did not follow (a heating cut short, as
-  // a jump up held shorter than the lead: it never left the flat stage, eq 4). Cooling cannot
+  // a jump up held about as long as the lead: it never left the flat stage, eq 4). Cooling cannot
   // raise the wire and the PID may not heat past V_hold there, so nothing brings the two
   // together: the inverse restarts at the wire (as a mode change does) once the wire has stayed
   // kPartedMm under the path for kPartedS; a reference above it then lies on a heating branch.
