@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
       Row row{kPlants[plant], c.name, 0.0, 0.0, 0.0, 0, 0};
       int k = 0;
       for (const Jump& j : js) {
-        progress("%-11s %-12s [%3d/%zu]", kPlants[plant], c.name, ++k, js.size());
+        if (++k % 48 == 1) progress("%-11s %-12s [%3d/%zu]", kPlants[plant], c.name, k, js.size());  // (a log: 9 lines)
         const Result r = run(j, c, plant);
         row.rms_mean += r.rms_mm / static_cast<double>(js.size());
         row.rms_worst = std::fmax(row.rms_worst, r.rms_mm);

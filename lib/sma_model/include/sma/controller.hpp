@@ -17,7 +17,7 @@
 #include "thermal.hpp"
 
 // The lead's restart of the inverse on a wire parked under its setpoint (Controller::
-// check_parted); 0 leaves it out of an image (~290 B of the Uno's float flash: the Q16.16 image,
+// check_parted); 0 leaves it out of an image (~170 B of the Uno's float flash: the Q16.16 image,
 // at its budget, is built without it).
 #ifndef SMA_LEAD_REANCHOR
 #define SMA_LEAD_REANCHOR 1
