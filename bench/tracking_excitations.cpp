@@ -170,11 +170,8 @@ RunSetup setup(const Excitation& x, const Ctl& c) {
 
 template <class T>
 std::vector<sma_host::Sample> run(int plant, const RunSetup& s) {
-  if (plant == 0) return sma_host::run_closed_loop<T>(s);
-  sma_host::plant_b::Wire w;
-  w.return_point_memory = false;  // model.md's literal re-heat reading: a new loop at every reversal
-  sma_host::plant_b::RigB rig(w, sma_host::plant_b::WireEffects(), s.condition.rig, s.config.dt);
-  return sma_host::run_closed_loop_on<T>(rig, s);
+  // (Plant B's default wire: model.md's literal re-heat reading, a new loop at every reversal.)
+  return plant == 0 ? sma_host::run_closed_loop<T>(s) : sma_host::plant_b::run_closed_loop_b<T>(s);
 }
 
 struct Row {

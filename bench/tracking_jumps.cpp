@@ -73,14 +73,8 @@ Result run(const Jump& j, const Ctl& c, int plant) {
   s.reference = trajectory(j);
   s.config.gains = sma::console::default_gains(c.mode);
   if (c.lead) s.lead = sma::lead_for(s.reference.kind);
-  std::vector<sma_host::Sample> r;
-  if (plant) {
-    sma_host::plant_b::Wire w;
-    sma_host::plant_b::RigB rig(w, sma_host::plant_b::WireEffects(), s.condition.rig, s.config.dt);
-    r = sma_host::run_closed_loop_on<float>(rig, s);
-  } else {
-    r = sma_host::run_closed_loop<float>(s);
-  }
+  const std::vector<sma_host::Sample> r =
+      plant ? sma_host::plant_b::run_closed_loop_b<float>(s) : sma_host::run_closed_loop<float>(s);
   const double end = s.reference.duration();
   double worst = 0.0;
   for (const sma_host::Sample& x : r)

@@ -45,10 +45,7 @@ struct Row {
 
 template <class T = float>
 std::vector<sma_host::Sample> run(const Case& c, const RunSetup& s) {
-  if (!c.plant_b) return sma_host::run_closed_loop<T>(s);
-  sma_host::plant_b::Wire w;
-  sma_host::plant_b::RigB rig(w, sma_host::plant_b::WireEffects(), s.condition.rig, s.config.dt);
-  return sma_host::run_closed_loop_on<T>(rig, s);
+  return c.plant_b ? sma_host::plant_b::run_closed_loop_b<T>(s) : sma_host::run_closed_loop<T>(s);
 }
 
 std::vector<Case> cases() {

@@ -37,8 +37,7 @@ Metrics run(int plant, const RunSetup& s) {
   } else {
     sma_host::plant_b::Wire w;
     w.return_point_memory = plant == 1;
-    sma_host::plant_b::RigB rig(w, sma_host::plant_b::WireEffects(), s.condition.rig, s.config.dt);
-    r = sma_host::run_closed_loop_on<T>(rig, s);
+    r = sma_host::plant_b::run_closed_loop_b<T>(s, w);
   }
   return s.reference.kind == sma::RefKind::Sine ? sma_host::sine_metrics(r, s.reference.sine_period_s)
                                                 : sma_host::step_metrics(r, s.reference.step_s);
