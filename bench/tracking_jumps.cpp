@@ -17,7 +17,7 @@
 #include <vector>
 #include "sma/console.hpp"
 #include "sma_host/metrics.hpp"
-#include "sma_host/plant_b_rig.hpp"
+#include "sma_host/plant_b_loop.hpp"
 #include "sma_host/progress.hpp"
 
 namespace {

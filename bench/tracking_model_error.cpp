@@ -20,7 +20,7 @@
 #include "sma/fixed.hpp"
 #include "sma_host/e2e_wire.hpp"
 #include "sma_host/metrics.hpp"
-#include "sma_host/plant_b_rig.hpp"
+#include "sma_host/plant_b_loop.hpp"
 #include "sma_host/progress.hpp"
 
 using sma_host::Metrics;

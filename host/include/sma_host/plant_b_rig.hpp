@@ -9,7 +9,6 @@
 
 #include <math.h>
 #include <stdint.h>
-#include "sma_host/closed_loop.hpp"
 #include "sma_host/plant.hpp"
 #include "sma_host/plant_b.hpp"
 #include "sma_host/plant_b_sensor.hpp"
@@ -70,14 +69,6 @@ class RigB {
   Sensor sensor_;
   sma::RigOptions rig_;
 };
-
-// A closed loop (run_closed_loop_on) on plant B, wire w (default: the paper's, model.md's literal
-// re-heat reading), without effects, under the run's rig condition.
-template <class T>
-std::vector<Sample> run_closed_loop_b(const RunSetup& s, const Wire& w = Wire()) {
-  RigB rig(w, WireEffects(), s.condition.rig, s.config.dt);
-  return run_closed_loop_on<T>(rig, s);
-}
 
 }  // namespace plant_b
 }  // namespace sma_host
